@@ -1,0 +1,74 @@
+"""Bridging-domain geometry and the energy weights α (FE nodes) and β (spheres).
+
+The DE zone is where only spheres live; the bridging domain is the band of `n_b` FE element
+layers just outside it, of width `n_b · h`. A zone gives each point its depth `s` out of the
+DE zone (s < 0 inside it): α rises linearly from 0 at s = 0 to 1 at s = width, β = 1 − α,
+both clamped to at least 0.01 because the corrector divides by them (METHOD.md, eq. 2).
+"""
+import numpy as np
+
+WEIGHT_FLOOR = 0.01
+
+
+class HalfSpaceZone:
+    """DE zone {x : (x − point)·normal < 0}: a plane interface, `normal` pointing to the FE side."""
+
+    def __init__(self, point, normal):
+        self.point = np.asarray(point, float)
+        n = np.asarray(normal, float)
+        norm = np.linalg.norm(n)
+        if norm == 0:
+            raise ValueError("HalfSpaceZone: normal must be non-zero")
+        self.normal = n / norm
+
+    def depth(self, x):
+        return (np.atleast_2d(x) - self.point) @ self.normal
+
+
+class BoxZone:
+    """Axis-aligned box DE zone, through the whole structure along the axes not in `axes`.
+
+    The depth is the Chebyshev distance out of the box over `axes`, so the bridging layers are
+    box-shaped shells that follow element boundaries of a structured mesh; negative inside.
+    """
+
+    def __init__(self, lo, hi, axes=(0, 1)):
+        self.lo = np.asarray(lo, float)
+        self.hi = np.asarray(hi, float)
+        self.axes = list(axes)
+        if np.any(self.hi[self.axes] <= self.lo[self.axes]):
+            raise ValueError(f"BoxZone: hi {self.hi} must exceed lo {self.lo} along axes {self.axes}")
+
+    def depth(self, x):
+        x = np.atleast_2d(x)[:, self.axes]
+        out = np.maximum(self.lo[self.axes] - x, x - self.hi[self.axes])
+        return out.max(axis=1)
+
+
+class Bridging:
+    """A DE zone plus a bridging band of `layers` FE element layers of size `element_size`."""
+
+    def __init__(self, zone, layers, element_size):
+        if int(layers) != layers or layers < 1:
+            raise ValueError(f"bridging layers must be an integer >= 1, got {layers!r}")
+        if not element_size > 0:
+            raise ValueError(f"bridging element size must be > 0, got {element_size!r}")
+        self.zone = zone
+        self.layers = int(layers)
+        self.width = self.layers * float(element_size)
+
+    def _ramp(self, x):
+        return np.clip(self.zone.depth(x) / self.width, 0.0, 1.0)
+
+    def alpha(self, x):
+        """FE weight at points x: 1 outside the bridging domain."""
+        return np.maximum(self._ramp(x), WEIGHT_FLOOR)
+
+    def beta(self, x):
+        """DE weight at points x: 1 inside the DE zone."""
+        return np.maximum(1.0 - self._ramp(x), WEIGHT_FLOOR)
+
+    def contains(self, x, tol=0.0):
+        """Mask of the points in the bridging domain (0 ≤ s ≤ width, widened by tol)."""
+        s = self.zone.depth(x)
+        return (s >= -tol) & (s <= self.width + tol)

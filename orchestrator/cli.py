@@ -1,0 +1,34 @@
+"""Command-line entry point: `python3 -m orchestrator SUBCOMMAND ...`.
+
+Each module of `orchestrator.commands` is one subcommand: it defines `NAME`, `HELP`,
+`configure(parser)` and `run(args) -> int`. Modules import the solvers inside `run`
+only, so that `--help` stays fast.
+"""
+import argparse
+import importlib
+import pkgutil
+
+from orchestrator import commands
+
+
+def _command_modules():
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
+        if not info.name.startswith("_"):
+            yield importlib.import_module(f"{commands.__name__}.{info.name}")
+
+
+def build_parser():
+    parser = argparse.ArgumentParser(
+        prog="python3 -m orchestrator",
+        description="Coupled YADE (DE) / FEniCSx (FE) solver for impacts on concrete.")
+    sub = parser.add_subparsers(dest="command", metavar="SUBCOMMAND", required=True)
+    for mod in _command_modules():
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        mod.configure(p)
+        p.set_defaults(func=mod.run)
+    return parser
+
+
+def main(argv=None):
+    args = build_parser().parse_args(argv)
+    return args.func(args) or 0

@@ -1,0 +1,12 @@
+"""Check that the stack the project runs on is importable, and say what it is."""
+
+
+def check():
+    import dolfinx
+    import scipy
+    import numpy
+    from yade_side import import_yade
+    yade = import_yade()
+    import yade.config
+    print(f"YADE {yade.config.version}, dolfinx {dolfinx.__version__}, "
+          f"numpy {numpy.__version__}, scipy {scipy.__version__}")

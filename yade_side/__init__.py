@@ -1,0 +1,27 @@
+"""YADE partner: the discrete-element side, embedded in the orchestrator's process.
+
+YADE is imported from Debian's build (`/usr/lib/x86_64-linux-gnu/yade-double/py`), whose
+`dist-packages/yade` link is dangling. Knows nothing of the FE side.
+"""
+import os
+import sys
+
+YADE_PY = "/usr/lib/x86_64-linux-gnu/yade-double/py"
+
+
+def import_yade(threads=None):
+    """Import YADE and return the `yade` module.
+
+    `threads` sets OMP_NUM_THREADS, which libgomp reads once, so it only counts on the
+    first import in a process; default: the environment's value, else 1.
+    """
+    if "yade" not in sys.modules:
+        if threads is not None:
+            os.environ["OMP_NUM_THREADS"] = str(int(threads))
+        os.environ.setdefault("OMP_NUM_THREADS", "1")
+        if not os.path.isdir(YADE_PY):
+            raise ImportError(f"YADE not found at {YADE_PY}: run `make setup` (Debian package yade)")
+        if YADE_PY not in sys.path:
+            sys.path.insert(0, YADE_PY)
+    import yade
+    return yade
