@@ -1,0 +1,99 @@
+"""One coupling correction per time step (METHOD.md, eqs. 14–28 and 33–35).
+
+Both partners first advance alone (the predictor: α and β cancel there). Given the predicted
+displacements and rotations of the bridging spheres and the predicted FE displacement, the
+coupling returns the corrections that enforce (full), or relax (diagonal, r > 1), the
+constraints d = k u and ω = h u. Pure numpy/scipy: arrays in, arrays out.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from orchestrator.multipliers import DiagonalSolver, FullSolver, multiplier_matrix
+
+VARIANTS = ("full", "diagonal")
+
+
+@dataclass
+class Correction:
+    dd: np.ndarray        # (n, 3) sphere displacement corrections
+    dw: np.ndarray        # (n, 3) sphere rotation corrections (zeros when rotations are off)
+    fe_dofs: np.ndarray   # FE dofs touched by the coupling
+    du: np.ndarray        # corrections of u[fe_dofs]
+    force: np.ndarray     # multiplier forces λ/r, translations then rotations (3n or 6n)
+    gap_pred: np.ndarray  # constraint residual q̃ − G ũ of the predictor
+    q: np.ndarray         # corrected sphere dofs (d, then ω), flat
+    Gu: np.ndarray        # G u of the corrected FE field; the residual is q − Gu
+
+
+class Coupling:
+    """Bridging-domain coupling of n spheres to an FE field of `fe_mass.size` dofs.
+
+    k, h: (3n, ndof) sparse operators of METHOD.md (h may be None when rotations are off);
+    de_mass, de_inertia, beta: (n,); fe_mass, fe_alpha: (ndof,) lumped mass and α per dof;
+    fe_fixed: (ndof,) mask of Dirichlet dofs; dt: the common time step.
+    """
+
+    def __init__(self, k, h, de_mass, de_inertia, beta, fe_mass, fe_alpha, fe_fixed, dt,
+                 variant="full", relaxation=1.0, rotations=True, backend="auto"):
+        if variant not in VARIANTS:
+            raise ValueError(f"coupling variant must be one of {VARIANTS}, got {variant!r}")
+        if not relaxation > 0:
+            raise ValueError(f"relaxation r must be > 0, got {relaxation!r}")
+        if not dt > 0:
+            raise ValueError(f"time step must be > 0, got {dt!r}")
+        n = len(de_mass)
+        if k.shape[0] != 3 * n or (rotations and h.shape[0] != 3 * n):
+            raise ValueError(f"k and h need {3 * n} rows for {n} spheres, got {k.shape}, "
+                             f"{None if h is None else h.shape}")
+        _check_positive("beta", beta)
+        _check_positive("sphere mass", de_mass)
+        if rotations:
+            _check_positive("sphere inertia", de_inertia)
+        self.n = n
+        self.dt = float(dt)
+        self.variant = variant
+        self.relaxation = float(relaxation)
+        self.rotations = bool(rotations)
+
+        G = sp.vstack([k, h]).tocsr() if rotations else sp.csr_matrix(k)
+        self.fe_dofs = np.unique(G.indices)
+        self.G = G[:, self.fe_dofs].tocsr()
+        fe_w = np.asarray(fe_alpha, float)[self.fe_dofs] * np.asarray(fe_mass, float)[self.fe_dofs]
+        _check_positive("alpha * FE mass of coupled dofs", fe_w)
+        self.fe_inv_mass = np.where(np.asarray(fe_fixed, bool)[self.fe_dofs], 0.0, 1.0 / fe_w)
+        de_inv = [np.repeat(1.0 / (beta * de_mass), 3)]
+        if rotations:
+            de_inv.append(np.repeat(1.0 / (beta * de_inertia), 3))
+        self.de_inv_mass = np.concatenate(de_inv)
+
+        S = multiplier_matrix(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt)
+        if variant == "full":
+            self.solver = FullSolver(S, backend)
+        else:
+            blocks = [(0, 3 * n), (3 * n, 6 * n)] if rotations else [(0, 3 * n)]
+            self.solver = DiagonalSolver(S, blocks)
+
+    def correct(self, d, w, u):
+        """Corrections for predicted sphere displacements d (n,3), rotations w (n,3) and FE
+        displacement u (ndof,)."""
+        q = np.asarray(d, float).ravel()
+        if self.rotations:
+            q = np.concatenate([q, np.asarray(w, float).ravel()])
+        gap_pred = q - self.G @ u[self.fe_dofs]
+        lam = self.solver.solve(gap_pred)
+        scale = self.dt * self.dt / self.relaxation
+        dq = -scale * self.de_inv_mass * lam
+        du = scale * self.fe_inv_mass * (self.G.T @ lam)
+        n3 = 3 * self.n
+        dw = dq[n3:].reshape(-1, 3) if self.rotations else np.zeros((self.n, 3))
+        return Correction(dq[:n3].reshape(-1, 3), dw, self.fe_dofs, du, lam / self.relaxation,
+                          gap_pred, q + dq, q - gap_pred + self.G @ du)
+
+
+def _check_positive(name, values):
+    values = np.asarray(values, float)
+    bad = np.flatnonzero(~(values > 0))
+    if bad.size:
+        raise ValueError(f"{name} must be > 0: entry {bad[0]} is {values[bad[0]]!r}")

@@ -1,0 +1,52 @@
+"""Cheap per-step checks of a coupled run: energy exchanged through the coupling, blow-up."""
+import math
+
+import numpy as np
+
+
+class BlowUp(RuntimeError):
+    pass
+
+
+class ExchangeMeter:
+    """Work of the multiplier forces, accumulated with the central-difference rule
+    W += f(t)·(x(t+Δt) − x(t−Δt))/2 from the corrections of successive steps.
+
+    `to_fe`: energy given to the FE model; `net`: energy the coupling creates or dissipates
+    (zero when the constraints hold exactly, as with the full solver and r = 1).
+    """
+
+    def __init__(self):
+        self.to_fe = 0.0
+        self.net = 0.0
+        self._history = []  # corrected (q, Gu) of the last two steps
+
+    def update(self, corr):
+        self._history.append((corr.q, corr.Gu))
+        if len(self._history) == 3:
+            (q0, Gu0), _, (q2, Gu2) = self._history
+            self.to_fe += 0.5 * float(corr.force @ (Gu2 - Gu0))
+            self.net += 0.5 * float(corr.force @ ((Gu2 - Gu0) - (q2 - q0)))
+            self._history.pop(0)
+
+
+class BlowUpGuard:
+    """Stops a run on NaN/inf or on energy above `growth` times the largest of the reference
+    energy (e.g. the initial kinetic energy of the impactor) and the energy put in so far."""
+
+    def __init__(self, reference_energy, growth=2.0):
+        if not growth > 1:
+            raise ValueError(f"energy growth limit must be > 1, got {growth!r}")
+        self.reference = float(reference_energy)
+        self.growth = float(growth)
+
+    def check(self, step, energy, input_energy=0.0, **arrays):
+        for name, a in arrays.items():
+            if not np.all(np.isfinite(a)):
+                raise BlowUp(f"step {step}: {name} is not finite (NaN or inf); "
+                             f"the time step may be above a critical step")
+        limit = self.growth * max(self.reference, input_energy)
+        if not math.isfinite(energy) or (limit > 0 and energy > limit):
+            raise BlowUp(f"step {step}: total energy {energy:.6g} J exceeds {self.growth:g} x "
+                         f"the reference {max(self.reference, input_energy):.6g} J: unstable run "
+                         f"(reduce the time step safety factor, or check the coupling)")
