@@ -1,0 +1,294 @@
+"""Linear-elastic, small-strain, lumped-mass explicit FE model (vector P1) on a dolfinx mesh.
+
+Serial by design: the state lives in numpy arrays and the coupling works on scipy matrices.
+Dof layout is dolfinx's blocked one: dof = 3 * node + component.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+import ufl
+from dolfinx import fem, geometry
+from dolfinx.fem import petsc
+from dolfinx.mesh import locate_entities_boundary
+from petsc4py import PETSc
+
+# relative accuracy asked of the largest eigenvalue in critical_dt
+_EIG_TOL = 1e-10
+# Newton pull-back to reference coordinates: step size (reference units) that ends it
+_PULL_BACK_TOL = 1e-13
+_PULL_BACK_ITERATIONS = 30
+
+
+def face(axis, value, tol=1e-8):
+    """Locator of the plane x[axis] = value (absolute tolerance tol), for `dirichlet`."""
+    if axis not in (0, 1, 2):
+        raise ValueError(f"axis must be 0, 1 or 2, got {axis!r}")
+    return lambda x: np.abs(x[axis] - value) <= tol
+
+
+@dataclass
+class CellStress:
+    tensor: np.ndarray         # (n_cells, 3, 3) cell-average Cauchy stress
+    von_mises: np.ndarray      # (n_cells,)
+    max_principal: np.ndarray  # (n_cells,) largest principal stress (tension > 0)
+
+
+class ElasticModel:
+    """Explicit central-difference (leap-frog) linear elastic model.
+
+    dirichlet: sequence of (locator, components); locator(x) -> bool mask over the columns of
+    x (3, n), applied to boundary facets as dolfinx's locate_entities_boundary does;
+    components: indices (0, 1, 2) held at zero on those facets.
+    State: u = displacement at time t, v = velocity at t - dt/2 (half step, like YADE's
+    NewtonIntegrator). Assigning u or v copies into the model's buffers.
+
+    Attributes: ndof; nodes (ndof/3, 3), node of dof 3 i + c is i; cell_nodes (n_cells, 4 or 8);
+    mass (ndof,) lumped row sums; K scipy csr copy of the stiffness (predict multiplies by the
+    same PETSc matrix, which is faster; neither has Dirichlet rows); fixed (ndof,) bool;
+    f_ext (ndof,) external nodal force; t.
+    """
+
+    def __init__(self, msh, E, nu, rho, dirichlet=(), quadrature_degree=2):
+        if msh.comm.size != 1:
+            raise ValueError(f"ElasticModel is serial; the mesh lives on {msh.comm.size} ranks")
+        if msh.geometry.cmap.degree != 1:
+            raise ValueError(f"need an affine/multilinear mesh geometry, got degree "
+                             f"{msh.geometry.cmap.degree}")
+        if not E > 0 or not rho > 0 or not -1.0 < nu < 0.5:
+            raise ValueError(f"need E > 0, rho > 0 and -1 < nu < 0.5; got E={E!r}, nu={nu!r}, "
+                             f"rho={rho!r}")
+        self.msh = msh
+        self.E, self.nu, self.rho = float(E), float(nu), float(rho)
+        self.mu = E / (2 * (1 + nu))
+        self.lmbda = E * nu / ((1 + nu) * (1 - 2 * nu))
+        self.V = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
+        self.dx = ufl.dx(domain=msh, metadata={"quadrature_degree": quadrature_degree})
+
+        self.nodes = self.V.tabulate_dof_coordinates()
+        self.ndof = 3 * len(self.nodes)
+        n_cells = msh.topology.index_map(msh.topology.dim).size_local
+        self.cell_nodes = self.V.dofmap.list.array.reshape(n_cells, -1)
+        self.basis = self.V.element.basix_element  # scalar P1, also the geometry's element
+
+        u, w = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
+        self._K_petsc = petsc.assemble_matrix(fem.form(ufl.inner(self._sigma(u), _eps(w)) * self.dx))
+        self._K_petsc.assemble()
+        indptr, indices, data = self._K_petsc.getValuesCSR()
+        self.K = sp.csr_matrix((data, indices, indptr), shape=(self.ndof, self.ndof))
+        ones = fem.Constant(msh, PETSc.ScalarType((1.0, 1.0, 1.0)))
+        self.mass = petsc.assemble_vector(fem.form(rho * ufl.inner(ones, w) * self.dx)).array.copy()
+        bad = np.flatnonzero(~(self.mass > 0))
+        if bad.size:
+            raise ValueError(f"lumped mass of dof {bad[0]} (node at {self.nodes[bad[0] // 3]}) is "
+                             f"{self.mass[bad[0]]!r}: an element is inverted or badly distorted")
+
+        self.fixed = self._dirichlet_mask(dirichlet)
+        # zero inverse mass freezes the fixed dofs in predict()
+        self._inv_mass_free = np.where(self.fixed, 0.0, 1.0 / self.mass)
+        self.f_ext = np.zeros(self.ndof)
+        self._u, self._v = np.zeros(self.ndof), np.zeros(self.ndof)
+        self._work = np.zeros(self.ndof)
+        # PETSc views of the numpy buffers: K.mult is ~2x faster than scipy's csr mat-vec here
+        self._u_vec = PETSc.Vec().createWithArray(self._u, comm=PETSc.COMM_SELF)
+        self._work_vec = PETSc.Vec().createWithArray(self._work, comm=PETSc.COMM_SELF)
+        self.t = 0.0
+        self._tree = None
+        self._stress_op = None
+
+    # --- state -------------------------------------------------------------------------------
+    @property
+    def u(self):
+        return self._u
+
+    @u.setter
+    def u(self, value):
+        self._u[:] = self._checked_state("u", value)
+
+    @property
+    def v(self):
+        return self._v
+
+    @v.setter
+    def v(self, value):
+        self._v[:] = self._checked_state("v", value)
+
+    def _checked_state(self, name, value):
+        value = np.asarray(value, float).reshape(self.ndof)
+        bad = np.flatnonzero(self.fixed & (value != 0))
+        if bad.size:
+            raise ValueError(f"{name}[{bad[0]}] = {value[bad[0]]!r} but that dof is fixed (zero)")
+        return value
+
+    # --- time stepping ----------------------------------------------------------------------
+    def predict(self, dt):
+        """One central-difference step without coupling: v += dt M⁻¹(f_ext − K u); u += dt v."""
+        self._K_petsc.mult(self._u_vec, self._work_vec)
+        np.subtract(self.f_ext, self._work, out=self._work)
+        self._work *= self._inv_mass_free
+        self._work *= dt
+        self._v += self._work
+        self._u += dt * self._v
+        self.t += dt
+
+    def correct(self, dofs, du, dt):
+        """Add du to u[dofs] (unique dofs) and du/dt to v[dofs]: still a central difference."""
+        self._u[dofs] += du
+        self._v[dofs] += du / dt
+
+    def critical_dt(self):
+        """2/ω_max of M⁻¹K over the free dofs (lumped mass), from the largest eigenvalue of
+        M^-½ K M^-½ (Lanczos), raised by ARPACK's relative tolerance so that the step is not
+        overestimated."""
+        free = np.flatnonzero(~self.fixed)
+        scale = sp.diags(1.0 / np.sqrt(self.mass[free]))
+        S = (scale @ self.K[free][:, free] @ scale).tocsr()
+        lam = spla.eigsh(S, k=1, which="LA", tol=_EIG_TOL, return_eigenvectors=False)[0]
+        return 2.0 / np.sqrt(lam * (1 + _EIG_TOL))
+
+    # --- energies ---------------------------------------------------------------------------
+    def kinetic_energy(self, weights=None):
+        """½ Σ w m v² with the half-step velocity v(t − dt/2); weights per dof (default 1)."""
+        w = 1.0 if weights is None else weights
+        return 0.5 * float(np.sum(w * self.mass * self._v ** 2))
+
+    def strain_energy(self, weights=None):
+        """½ Σ w u (K u) at time t; weights per dof (default 1)."""
+        w = 1.0 if weights is None else weights
+        return 0.5 * float(np.sum(w * self._u * (self.K @ self._u)))
+
+    # --- coupling operators -----------------------------------------------------------------
+    def locate(self, points):
+        """Cell containing each point and the point's reference coordinates in it: (cells, X).
+
+        A point on a face shared by cells gets one of them. Raises ValueError naming the first
+        point that is in no cell.
+        """
+        points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+        if self._tree is None:
+            self._tree = geometry.BoundingBoxTree(self.msh, self.msh.topology.dim)
+        candidates = geometry.compute_collisions(self._tree, points)
+        colliding = geometry.compute_colliding_cells(self.msh, candidates, points)
+        counts = np.diff(colliding.offsets)
+        outside = np.flatnonzero(counts == 0)
+        if outside.size:
+            j = outside[0]
+            raise ValueError(f"point {j} at {points[j].tolist()} is in no FE cell "
+                             f"({outside.size} of {len(points)} points are outside the mesh)")
+        # Distorted hexahedra are located by their vertices' convex hull: keep, among the
+        # colliding cells, the one whose reference coordinates are least outside the cell.
+        pair_point = np.repeat(np.arange(len(points)), counts)
+        pair_cell = colliding.array
+        X = self._pull_back(points[pair_point], pair_cell)
+        miss = self._reference_excess(X)
+        order = np.lexsort((miss, pair_point))
+        first = order[colliding.offsets[:-1]]
+        return pair_cell[first], X[first]
+
+    def point_operators(self, points):
+        """(k, h), csr of shape (3n, ndof): k u = u(x_j); h u = ½ curl u (x_j) (METHOD.md)."""
+        points = np.asarray(points, float).reshape(-1, 3)
+        cells, X = self.locate(points)
+        n, nv = len(points), self.cell_nodes.shape[1]
+        N, grad = self._basis_at(cells, X)
+        node = self.cell_nodes[cells]                           # (n, nv)
+        j = np.broadcast_to(np.arange(n)[:, None], (n, nv))
+        rows = [3 * j + c for c in range(3)]
+        cols = [3 * node + c for c in range(3)]
+        k = sp.csr_matrix((np.concatenate([N.ravel()] * 3),
+                           (np.concatenate([r.ravel() for r in rows]),
+                            np.concatenate([c.ravel() for c in cols]))), shape=(3 * n, self.ndof))
+        # ½ [g]×: entry (a, b) = ½ sign g[comp]
+        cross = ((0, 1, 2, -1), (0, 2, 1, 1), (1, 0, 2, 1), (1, 2, 0, -1), (2, 0, 1, -1),
+                 (2, 1, 0, 1))
+        h = sp.csr_matrix((np.concatenate([0.5 * s * grad[:, :, g].ravel() for a, b, g, s in cross]),
+                           (np.concatenate([rows[a].ravel() for a, b, g, s in cross]),
+                            np.concatenate([cols[b].ravel() for a, b, g, s in cross]))),
+                          shape=(3 * n, self.ndof))
+        return k, h
+
+    def _pull_back(self, points, cells):
+        """Reference coordinates of points in the given cells (vectorised Newton iteration;
+        one step is exact on tetrahedra and parallelepipeds)."""
+        xc = self.nodes[self.cell_nodes[cells]]                  # (n, nv, 3)
+        X = np.tile(self._reference_centre(), (len(points), 1))
+        for _ in range(_PULL_BACK_ITERATIONS):
+            N, _, J = self._map(X, xc)
+            step = np.linalg.solve(J, (points - np.einsum("pi,pia->pa", N, xc))[:, :, None])[:, :, 0]
+            X += step
+            if np.abs(step).max(initial=0.0) < _PULL_BACK_TOL:
+                return X
+        worst = np.argmax(np.abs(step).max(axis=1))
+        raise RuntimeError(f"pull-back of point {points[worst].tolist()} into cell {cells[worst]} "
+                           f"did not converge: the cell is too distorted")
+
+    def _map(self, X, xc):
+        """Shape function values N (n, nv), reference gradients dN (3, n, nv) and Jacobian
+        J (n, 3, 3), J[p, a, d] = ∂x_a/∂X_d, at reference points X of cells with nodes xc."""
+        tab = self.basis.tabulate(1, X)[:, :, :, 0]
+        return tab[0], tab[1:], np.einsum("dpi,pia->pad", tab[1:], xc)
+
+    def _basis_at(self, cells, X):
+        """Values (n, nv) and physical gradients (n, nv, 3) of the cells' shape functions."""
+        N, dN, J = self._map(X, self.nodes[self.cell_nodes[cells]])
+        return N, np.einsum("dpi,pda->pia", dN, np.linalg.inv(J))
+
+    def _reference_centre(self):
+        return self.basis.points.mean(axis=0)
+
+    def _reference_excess(self, X):
+        """How far reference coordinates lie outside the reference cell (0 inside)."""
+        if self.cell_nodes.shape[1] == 4:                        # tetrahedron: X ≥ 0, ΣX ≤ 1
+            return np.maximum(np.maximum(-X, 0).max(axis=1), X.sum(axis=1) - 1)
+        return np.maximum(np.maximum(-X, X - 1), 0).max(axis=1)
+
+    # --- stress -----------------------------------------------------------------------------
+    def stress(self):
+        """Cell-average (DG0) Cauchy stress of the current u, with von Mises and largest
+        principal stress per cell."""
+        if self._stress_op is None:
+            self._stress_op = self._cell_average_stress_operator()
+        sigma = (self._stress_op @ self._u).reshape(-1, 3, 3)
+        dev = sigma - np.trace(sigma, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
+        von_mises = np.sqrt(1.5 * np.einsum("cab,cab->c", dev, dev))
+        return CellStress(sigma, von_mises, np.linalg.eigvalsh(sigma)[:, -1])
+
+    def _cell_average_stress_operator(self):
+        """Sparse (9 n_cells, ndof): u ↦ (1/|cell|) ∫_cell σ(u), row 9 c + 3 a + b."""
+        T = fem.TensorFunctionSpace(self.msh, ("DG", 0))
+        Q = fem.FunctionSpace(self.msh, ("DG", 0))
+        A = petsc.assemble_matrix(fem.form(ufl.inner(self._sigma(ufl.TrialFunction(self.V)),
+                                                     ufl.TestFunction(T)) * self.dx))
+        A.assemble()
+        indptr, indices, data = A.getValuesCSR()
+        A = sp.csr_matrix((data, indices, indptr), shape=A.getSize())
+        volume = petsc.assemble_vector(fem.form(ufl.TestFunction(Q) * self.dx)).array
+        n_cells = len(self.cell_nodes)
+        tensor_dof = T.dofmap.list.array.reshape(n_cells, 1)
+        rows = (9 * tensor_dof + np.arange(9)).ravel()
+        cell_volume = np.repeat(volume[Q.dofmap.list.array.reshape(n_cells)], 9)
+        return (sp.diags(1.0 / cell_volume) @ A[rows]).tocsr()
+
+    def _sigma(self, w):
+        e = _eps(w)
+        return 2 * self.mu * e + self.lmbda * ufl.tr(e) * ufl.Identity(3)
+
+    def _dirichlet_mask(self, dirichlet):
+        msh = self.msh
+        fdim = msh.topology.dim - 1
+        msh.topology.create_connectivity(fdim, msh.topology.dim)
+        fixed = np.zeros(self.ndof, bool)
+        for i, (locator, components) in enumerate(dirichlet):
+            facets = locate_entities_boundary(msh, fdim, locator)
+            if facets.size == 0:
+                raise ValueError(f"Dirichlet condition {i}: its locator matches no boundary facet")
+            for c in components:
+                if c not in (0, 1, 2):
+                    raise ValueError(f"Dirichlet condition {i}: component {c!r} not in (0, 1, 2)")
+                fixed[fem.locate_dofs_topological(self.V.sub(c), fdim, facets)] = True
+        return fixed
+
+
+def _eps(w):
+    return ufl.sym(ufl.grad(w))
