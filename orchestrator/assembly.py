@@ -1,0 +1,37 @@
+"""Assembling a coupling from the two partners: which spheres are coupled, the weights, the
+operators, the common time step. Duck-typed on the partners (see orchestrator.timeloop)."""
+import numpy as np
+
+from orchestrator.coupling import Coupling
+
+
+def bridging_spheres(bridging, centres, tol=0.0):
+    """Indices of the sphere centres that lie in the bridging domain."""
+    return np.flatnonzero(bridging.contains(np.asarray(centres, float), tol))
+
+
+def common_time_step(safety, de_critical, fe_critical):
+    """safety × the smaller critical step; both partners must be stable alone."""
+    if not 0 < safety <= 1:
+        raise ValueError(f"time step safety factor must be in (0, 1], got {safety!r}")
+    for name, value in (("DE", de_critical), ("FE", fe_critical)):
+        if not value > 0:
+            raise ValueError(f"{name} critical time step must be > 0, got {value!r}")
+    return safety * min(de_critical, fe_critical)
+
+
+def check_time_step(dt, de_critical, fe_critical):
+    for name, value in (("DE", de_critical), ("FE", fe_critical)):
+        if dt > value:
+            raise ValueError(f"time step {dt:.4g} s exceeds the {name} critical step "
+                             f"{value:.4g} s: the run would blow up")
+
+
+def make_coupling(fe, bridging, bridge, dt, variant="full", relaxation=1.0, rotations=True,
+                  backend="auto"):
+    """Coupling of the bridge spheres (`bridge.ref_pos`, `mass`, `inertia`) to the FE model."""
+    k, h = fe.point_operators(bridge.ref_pos)
+    return Coupling(k, h if rotations else None, bridge.mass, bridge.inertia,
+                    bridging.beta(bridge.ref_pos), fe.mass, np.repeat(bridging.alpha(fe.nodes), 3),
+                    fe.fixed, dt, variant=variant, relaxation=relaxation, rotations=rotations,
+                    backend=backend)
