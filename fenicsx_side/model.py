@@ -73,7 +73,8 @@ class ElasticModel:
         self.basis = self.V.element.basix_element  # scalar P1, also the geometry's element
 
         u, w = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
-        self._K_petsc = petsc.assemble_matrix(fem.form(ufl.inner(self._sigma(u), _eps(w)) * self.dx))
+        stiffness = fem.form(ufl.inner(self._sigma(u), _eps(w)) * self.dx)
+        self._K_petsc = petsc.assemble_matrix(stiffness)
         self._K_petsc.assemble()
         indptr, indices, data = self._K_petsc.getValuesCSR()
         self.K = sp.csr_matrix((data, indices, indptr), shape=(self.ndof, self.ndof))
@@ -196,16 +197,13 @@ class ElasticModel:
         j = np.broadcast_to(np.arange(n)[:, None], (n, nv))
         rows = [3 * j + c for c in range(3)]
         cols = [3 * node + c for c in range(3)]
-        k = sp.csr_matrix((np.concatenate([N.ravel()] * 3),
-                           (np.concatenate([r.ravel() for r in rows]),
-                            np.concatenate([c.ravel() for c in cols]))), shape=(3 * n, self.ndof))
-        # ½ [g]×: entry (a, b) = ½ sign g[comp]
+        shape = (3 * n, self.ndof)
+        k = _csr([N] * 3, rows, cols, shape)
+        # ½ [g]× with g = ∇N_i(x_j): its 6 entries as (row a, column b, component of g, sign)
         cross = ((0, 1, 2, -1), (0, 2, 1, 1), (1, 0, 2, 1), (1, 2, 0, -1), (2, 0, 1, -1),
                  (2, 1, 0, 1))
-        h = sp.csr_matrix((np.concatenate([0.5 * s * grad[:, :, g].ravel() for a, b, g, s in cross]),
-                           (np.concatenate([rows[a].ravel() for a, b, g, s in cross]),
-                            np.concatenate([cols[b].ravel() for a, b, g, s in cross]))),
-                          shape=(3 * n, self.ndof))
+        h = _csr([0.5 * sign * grad[:, :, g] for _, _, g, sign in cross],
+                 [rows[a] for a, _, _, _ in cross], [cols[b] for _, b, _, _ in cross], shape)
         return k, h
 
     def _pull_back(self, points, cells):
@@ -215,7 +213,8 @@ class ElasticModel:
         X = np.tile(self._reference_centre(), (len(points), 1))
         for _ in range(_PULL_BACK_ITERATIONS):
             N, _, J = self._map(X, xc)
-            step = np.linalg.solve(J, (points - np.einsum("pi,pia->pa", N, xc))[:, :, None])[:, :, 0]
+            residual = points - np.einsum("pi,pia->pa", N, xc)
+            step = np.linalg.solve(J, residual[:, :, None])[:, :, 0]
             X += step
             if np.abs(step).max(initial=0.0) < _PULL_BACK_TOL:
                 return X
@@ -288,6 +287,12 @@ class ElasticModel:
                     raise ValueError(f"Dirichlet condition {i}: component {c!r} not in (0, 1, 2)")
                 fixed[fem.locate_dofs_topological(self.V.sub(c), fdim, facets)] = True
         return fixed
+
+
+def _csr(values, rows, cols, shape):
+    """csr matrix from lists of equally shaped arrays of entries and their indices."""
+    flat = lambda arrays: np.concatenate([a.ravel() for a in arrays])
+    return sp.csr_matrix((flat(values), (flat(rows), flat(cols))), shape=shape)
 
 
 def _eps(w):
