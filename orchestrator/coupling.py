@@ -68,11 +68,11 @@ class Coupling:
             de_inv.append(np.repeat(1.0 / (beta * de_inertia), 3))
         self.de_inv_mass = np.concatenate(de_inv)
 
-        S = multiplier_matrix(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt)
         if variant == "full":
-            self.solver = FullSolver(S, backend)
+            self.solver = FullSolver(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt, backend)
         else:
             blocks = [(0, 3 * n), (3 * n, 6 * n)] if rotations else [(0, 3 * n)]
+            S = multiplier_matrix(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt)
             self.solver = DiagonalSolver(S, blocks)
 
     def correct(self, d, w, u):

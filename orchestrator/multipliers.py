@@ -20,17 +20,34 @@ def multiplier_matrix(G, de_inv_mass, fe_inv_mass, dt):
 
 
 class FullSolver:
-    """Exact multipliers: S factorised once (sparse Cholesky), one back-solve per step."""
+    """Exact multipliers λ = S⁻¹ g through the Woodbury identity
+
+        S⁻¹ = Δt⁻² [D − D G_f T⁻¹ G_fᵀ D],   T = W_f + G_fᵀ D G_f,
+
+    with D = diag(β M, β J), W_f = diag(α m) and G_f the columns of the free FE dofs. T is a
+    "coupled mass matrix" over the FE dofs of the bridging domain, with the sparsity of an FE
+    mass matrix, so its Cholesky factor (computed once) is far sparser than that of S, which
+    couples every pair of spheres that share an element node (measured: 2,334 bridging
+    spheres with rotations, factorising S took 1.4 s and a solve 12 ms; see docs).
+    """
 
     name = "full"
 
-    def __init__(self, S, backend="auto"):
+    def __init__(self, G, de_inv_mass, fe_inv_mass, dt, backend="auto"):
         self.backend = _pick_backend(backend)
-        self._solve = _FACTORISERS[self.backend](S.tocsc())
         self.guarded_rows = 0
+        free = fe_inv_mass > 0
+        self._de_mass = 1.0 / de_inv_mass
+        self._Gf = G[:, free].tocsr()
+        self._inv_dt2 = 1.0 / (dt * dt)
+        T = sp.diags(1.0 / fe_inv_mass[free]) + self._Gf.T @ sp.diags(self._de_mass) @ self._Gf
+        self._solve_T = _FACTORISERS[self.backend](T.tocsc()) if free.any() else None
 
     def solve(self, g):
-        return self._solve(g)
+        Dg = self._de_mass * g
+        if self._solve_T is not None:
+            Dg -= self._de_mass * (self._Gf @ self._solve_T(self._Gf.T @ Dg))
+        return self._inv_dt2 * Dg
 
 
 class DiagonalSolver:
