@@ -1,0 +1,161 @@
+"""The YADE partner against exact answers."""
+import numpy as np
+import pytest
+
+from yade_side import import_yade
+from yade_side.bulk import BodySet, quaternion_product, rotation_quaternion
+from yade_side.chain import build_chain
+from yade_side.damage import LinkDamage
+from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
+
+yade = import_yade()
+O = yade.Omega()
+EPS = np.finfo(float).eps
+
+
+def concrete(**kw):
+    params = dict(young=30e9, poisson=0.2, frictionAngle=0.67, sigmaT=3e6, epsCrackOnset=1e-4,
+                  relDuctility=30, density=4000)
+    params.update(kw)
+    return O.materials.append(yade.wrapper.CpmMat(**params))
+
+
+def cluster(n=4, R=0.01, gap=0.0, **kw):
+    """n spheres on a line, `gap` apart (touching: n − 1 cohesive links)."""
+    reset_scene()
+    from yade import utils
+    mat = concrete(**kw)
+    ids = O.bodies.append([utils.sphere(((2 * R + gap) * i, 0.0, 0.0), R, material=mat) for i in range(n)])
+    return list(ids)
+
+
+def test_bulk_state_equals_per_body_state():
+    ids = cluster()
+    cpm_engines()
+    rng = np.random.default_rng(0)
+    for i in ids:
+        O.bodies[i].state.vel = tuple(rng.normal(size=3))
+        O.bodies[i].state.angVel = tuple(rng.normal(size=3))
+    O.step()
+    bs = BodySet(ids)
+    for j, i in enumerate(ids):
+        s = O.bodies[i].state
+        assert np.array_equal(bs.pos[j], np.array(s.pos))
+        assert np.array_equal(bs.vel[j], np.array(s.vel))
+        assert np.array_equal(bs.angvel[j], np.array(s.angVel))
+        assert np.array_equal(bs.ori[j], [s.ori[k] for k in range(4)])  # x, y, z, w
+        assert bs.mass[j] == s.mass and bs.inertia[j] == s.inertia[0]
+    # a write goes back body by body
+    bs.state[:, 3:6] = rng.normal(size=(len(ids), 3))
+    bs.write()
+    for j, i in enumerate(ids):
+        assert np.array_equal(np.array(O.bodies[i].state.vel), bs.vel[j])
+
+
+def test_correction_is_an_exact_central_difference_update():
+    """YADE's step + correct(dd) equals the central difference with the correction's force
+    f = m dd / Δt² added: x(n+1) = 2 x(n) − x(n−1) + Δt² (F + f)/m, to round-off."""
+    ids = cluster(n=3)
+    cpm_engines()
+    create_cohesive_links()
+    bs = BodySet(ids)
+    dt = O.dt
+    rng = np.random.default_rng(1)
+    bs.set_velocity(rng.normal(size=(3, 3)) * 0.1)
+    history = [bs.read()[:, :3].copy()]
+    O.step()
+    bs.predict(dt)
+    history.append(bs.pos.copy())
+    for _ in range(5):
+        O.step()
+        forces = np.array([O.forces.f(int(i)) for i in ids])  # F(x_n), used by this step
+        bs.predict(dt)
+        dd = rng.normal(size=(3, 3)) * 1e-9
+        bs.correct(dd, np.zeros((3, 3)), dt)
+        expected = 2 * history[-1] - history[-2] + dt**2 * forces / bs.mass[:, None] + dd
+        scale = np.abs(history[-1]).max()
+        assert np.allclose(bs.read()[:, :3], expected, rtol=0, atol=64 * EPS * scale)
+        history.append(bs.pos.copy())
+
+
+def test_rotation_correction_turns_orientation_and_accumulates_rotation_vector():
+    ids = cluster(n=2, gap=0.1)  # apart: no link, no torque
+    cpm_engines()
+    bs = BodySet(ids)
+    dt = O.dt
+    w = np.array([[0.0, 0.0, 2.0], [1.0, -1.0, 0.5]])
+    bs.set_velocity(np.zeros((2, 3)), w)
+    O.step()
+    bs.predict(dt)
+    assert np.allclose(bs.rotation_pred, dt * w, rtol=1e-15)
+    dtheta = np.array([[0.0, 0.0, 1e-3], [0.0, 0.0, 0.0]])
+    bs.correct(np.zeros((2, 3)), dtheta, dt)
+    # orientation = rotation of (dt w) then dθ; for sphere 0 both are about z: angles add
+    angle = np.linalg.norm(np.array(O.bodies[int(ids[0])].state.ori.toAxisAngle()[1]))
+    assert angle == pytest.approx(2 * dt + 1e-3, rel=1e-12)
+    assert np.allclose(bs.rotation[0], [0, 0, 2 * dt + 1e-3], rtol=1e-15)
+    assert np.allclose(bs.angvel[0], [0, 0, 2 + 1e-3 / dt], rtol=1e-15)
+
+
+def test_quaternion_helpers():
+    rng = np.random.default_rng(2)
+    theta = rng.normal(size=(5, 3))
+    q = rotation_quaternion(theta)
+    assert np.allclose(np.linalg.norm(q, axis=1), 1, atol=1e-15)
+    # two rotations about the same axis compose into the sum of angles
+    half = rotation_quaternion(0.5 * theta)
+    assert np.allclose(quaternion_product(half, half), q, atol=1e-15)
+    assert np.allclose(rotation_quaternion(np.zeros((1, 3))), [[0, 0, 0, 1]])
+
+
+def test_damage_counts_broken_over_initial_links():
+    """A chain of 4: pull the last sphere away by far more than the links' strain at
+    failure: its one link breaks; damage = 0, 0, 1/2, 1 for the four spheres."""
+    ids = cluster(n=4)
+    cpm_engines()
+    create_cohesive_links()
+    dmg = LinkDamage(ids)
+    assert dmg.record_initial().tolist() == [1, 2, 2, 1]
+    last = O.bodies[int(ids[-1])]
+    for b in O.bodies:
+        b.state.blockedDOFs = "xyzXYZ"
+    last.state.vel = (10.0, 0, 0)
+    O.dt = 1e-7
+    # 2e-4 m on a 2e-2 m link: strain κ = 1e-2; CPM's ω = 1 − (ε0/κ) exp(−(κ − ε0)/(30 ε0))
+    # = 0.9996 > 0.99 with ε0 = 1e-4
+    for _ in range(200):
+        O.step()
+    assert dmg.update().tolist() == [0.0, 0.0, 0.5, 1.0]
+    assert dmg.broken_links() == 1
+
+
+def test_chain_carries_a_long_wave_at_its_link_speed():
+    """A 1D chain with k = E A/L and m = ρ A L: a smooth pulse (40 spacings wide) travels
+    at c = L √(k/m) = √(E/ρ). Leap-frog on the chain at Courant number C slows a Gaussian of
+    width σ by about (1 − C²)(L/σ)²/16 = 4.7e-4 here; allow twice that."""
+    reset_scene()
+    E, rho, L = 30e9, 2400.0, 0.01
+    A = L * L
+    n = 400
+    ids = build_chain((0, 0, 0), L, n, E, rho, A)
+    cpm_engines(dt=0.5 * L / np.sqrt(E / rho))
+    create_cohesive_links()
+    assert len([i for i in O.interactions]) == n - 1
+    c = np.sqrt(E / rho)
+    bs = BodySet(ids)
+    x = bs.ref_pos[:, 0]
+    sigma = 10 * L
+    # right-going wave: u = f(x − c t), v = −c f'
+    f = lambda s: 1e-6 * np.exp(-0.5 * ((s - 1.0) / sigma) ** 2)
+    dt = O.dt
+    bs.state[:, 0] = x + f(x)
+    bs.state[:, 3] = -c * np.gradient(f(x + 0.5 * c * dt), x)  # at t = −Δt/2
+    bs.write()
+    steps = 400  # 2 m of travel, the pulse stays 1 m from the end
+    for _ in range(steps):
+        O.step()
+    u = bs.read()[:, 0] - x
+    t = steps * dt
+    centre = np.sum(x * u) / np.sum(u)
+    speed = (centre - 1.0) / t
+    assert speed == pytest.approx(c, rel=2 * 0.75 * (L / sigma) ** 2 / 16)

@@ -1,0 +1,60 @@
+"""Damage per sphere = broken / initial cohesive links (the paper's measure).
+
+Not YADE's numBrokenCohesive (it also counts separating frictional contacts) nor normDmg
+(smeared). Cohesive links are only made on the first step (scene.cpm_engines), so the
+intact cohesive interactions are a subset of the initial ones. A link counts as broken once its CPM damage ω reaches BROKEN_OMEGA or it is gone.
+Walking O.interactions costs ~1 µs per entry: call update() every few hundred steps.
+"""
+import numpy as np
+
+from yade_side import import_yade
+
+BROKEN_OMEGA = 0.99
+
+
+class LinkDamage:
+    def __init__(self, ids):
+        """ids: the spheres whose damage is measured; call record_initial() once the cohesive
+        links exist (after create_cohesive_links)."""
+        self._O = import_yade().Omega()
+        self.ids = np.asarray(ids, dtype=int)
+        self._index = np.full(self.ids.max() + 1, -1)
+        self._index[self.ids] = np.arange(len(self.ids))
+        self.initial = np.zeros(len(self.ids), int)
+        self._links = np.empty((0, 2), int)
+
+    def record_initial(self):
+        self._links = self._cohesive_links(require_intact=False)
+        self.initial = self._count(self._links)
+        return self.initial
+
+    def _cohesive_links(self, require_intact):
+        pairs = []
+        for i in self._O.interactions:
+            phys = i.phys
+            if phys is not None and phys.isCohesive and (
+                    not require_intact or phys.omega < BROKEN_OMEGA):
+                pairs.append((i.id1, i.id2))
+        return np.array(pairs, int).reshape(-1, 2)
+
+    def _count(self, links):
+        counts = np.zeros(len(self.ids), int)
+        for column in links.T:
+            inside = column < len(self._index)
+            local = self._index[column[inside]]
+            np.add.at(counts, local[local >= 0], 1)
+        return counts
+
+    def intact(self):
+        """Per sphere, how many of its initial links are still intact."""
+        return self._count(self._cohesive_links(require_intact=True))
+
+    def update(self):
+        """Damage per sphere in [0, 1]; 0 for spheres that had no link."""
+        broken = self.initial - self.intact()
+        return np.divide(broken, self.initial, out=np.zeros(len(self.ids)),
+                         where=self.initial > 0)
+
+    def broken_links(self):
+        """Total broken links (each counted once)."""
+        return int(len(self._links) - len(self._cohesive_links(require_intact=True)))

@@ -1,0 +1,52 @@
+"""The YADE scene: engines for dynamics of cohesive-frictional CPM spheres."""
+from yade_side import import_yade
+
+# Cohesive links are made between spheres up to this factor of the sum of radii apart
+# (first step only), so that a random dense packing gets ~11–12 links per sphere.
+INTERACTION_RADIUS = 1.5
+
+
+def reset_scene():
+    yade = import_yade()
+    yade.Omega().reset()
+
+
+def cpm_engines(dt=None, dt_safety=0.8, threshold=1.0):
+    """O.engines for explicit dynamics of CpmMat spheres: no damping, no gravity, fixed Δt.
+
+    Δt = dt if given, else dt_safety × PWaveTimeStep(). `threshold` is
+    Law2_ScGeom_CpmPhys_Cpm.omegaThreshold (links are deleted once damage exceeds it; 1 keeps
+    them). Only contacts of the first step become cohesive links (cohesiveThresholdIter=1):
+    an impactor never sticks. Returns (law, newton). Call create_cohesive_links() once the bodies are in."""
+    yade = import_yade()
+    from yade import utils, wrapper as w
+    O = yade.Omega()
+    law = w.Law2_ScGeom_CpmPhys_Cpm(omegaThreshold=threshold)
+    newton = w.NewtonIntegrator(damping=0.0, gravity=(0, 0, 0))
+    O.engines = [
+        w.ForceResetter(),
+        w.InsertionSortCollider([w.Bo1_Sphere_Aabb(aabbEnlargeFactor=INTERACTION_RADIUS,
+                                                   label="aabb")]),
+        w.InteractionLoop([w.Ig2_Sphere_Sphere_ScGeom(
+                              interactionDetectionFactor=INTERACTION_RADIUS, label="ig2")],
+                          [w.Ip2_CpmMat_CpmMat_CpmPhys(cohesiveThresholdIter=1)], [law]),
+        newton,
+    ]
+    O.dynDt = False
+    O.dt = dt if dt is not None else dt_safety * utils.PWaveTimeStep()
+    return law, newton
+
+
+def create_cohesive_links():
+    """One step with the enlarged detection radius creates the cohesive links; then the
+    factors go back to 1 so that later contacts are ordinary frictional ones."""
+    yade = import_yade()
+    O = yade.Omega()
+    O.step()
+    for engine in O.engines:
+        if isinstance(engine, yade.wrapper.InsertionSortCollider):
+            for functor in engine.boundDispatcher.functors:
+                functor.aabbEnlargeFactor = 1.0
+        if isinstance(engine, yade.wrapper.InteractionLoop):
+            for functor in engine.geomDispatcher.functors:
+                functor.interactionDetectionFactor = 1.0
