@@ -159,3 +159,23 @@ def test_chain_carries_a_long_wave_at_its_link_speed():
     centre = np.sum(x * u) / np.sum(u)
     speed = (centre - 1.0) / t
     assert speed == pytest.approx(c, rel=2 * 0.75 * (L / sigma) ** 2 / 16)
+
+
+def test_sphere_series_reads_back(tmp_path):
+    from yade_side.output import SphereSeries, read_series
+    rng = np.random.default_rng(3)
+    series = SphereSeries(tmp_path / "spheres.pvd")
+    frames = []
+    for t in (0.0, 1e-3):
+        c, r, d, dmg = rng.normal(size=(7, 3)), rng.random(7), rng.normal(size=(7, 3)), rng.random(7)
+        series.write(t, c, r, displacement=d, damage=dmg)
+        frames.append((t, c, r, d, dmg))
+    back = read_series(tmp_path / "spheres.pvd")
+    assert [t for t, _ in back] == [0.0, 1e-3]
+    for (t, c, r, d, dmg), (_, mesh) in zip(frames, back):
+        assert np.array_equal(mesh.points, c)
+        assert np.array_equal(mesh.point_data["radius"], r)
+        assert np.array_equal(mesh.point_data["displacement"], d)
+        assert np.array_equal(mesh.point_data["damage"], dmg)
+    with pytest.raises(ValueError, match="damage"):
+        series.write(0.0, c, r, damage=dmg[:3])
