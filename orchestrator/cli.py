@@ -5,6 +5,7 @@ Each module of `orchestrator.commands` is one subcommand: it defines `NAME`, `HE
 only, so that `--help` stays fast.
 """
 import argparse
+import sys
 import importlib
 import pkgutil
 
@@ -30,5 +31,12 @@ def build_parser():
 
 
 def main(argv=None):
+    from orchestrator.diagnostics import BlowUp
+    from orchestrator.results import ResultsExist
     args = build_parser().parse_args(argv)
-    return args.func(args) or 0
+    try:
+        return args.func(args) or 0
+    except (ValueError, ResultsExist, BlowUp, FileNotFoundError) as e:
+        # bad input or a run that went wrong: one clear line, no traceback
+        print(f"error: {e}", file=sys.stderr)
+        return 2

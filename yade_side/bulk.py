@@ -4,6 +4,8 @@ One call reads or writes the 13 state values of every body of the set (pos, vel,
 ori as x, y, z, w) through YADE's C++ `Subdomain.get/setStateValuesFromIds`, which works in a
 plain serial scene: no per-body Python in the time loop.
 """
+import array
+
 import numpy as np
 
 from yade_side import import_yade
@@ -37,11 +39,13 @@ class BodySet:
         return len(self.ids)
 
     def read(self):
-        self.state[:] = np.reshape(self._subdomain.getStateValuesFromIds(self._id_list), (-1, 13))
+        # array.array converts YADE's list of floats in C: twice as fast as np.array(list)
+        values = array.array("d", self._subdomain.getStateValuesFromIds(self._id_list))
+        self.state[:] = np.frombuffer(values, float).reshape(-1, 13)
         return self.state
 
     def write(self):
-        self._subdomain.setStateValuesFromIds(self._id_list, self.state.ravel().tolist())
+        self._subdomain.setStateValuesFromIds(self._id_list, array.array("d", self.state.tobytes()))
 
     @property
     def pos(self):

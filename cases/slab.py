@@ -1,0 +1,425 @@
+"""Slab impact (the paper's §5): a concrete cube of spheres hits a simply supported slab.
+
+One description, two models:
+- full: the whole slab in spheres (YADE alone);
+- coupled: spheres in a central DE zone through the thickness plus a bridging band of
+  `layers` FE element layers around it; FE (dolfinx) everywhere outside the DE zone.
+Both models take their slab spheres from the same packing of the whole slab, so the DE
+zone's micro-structure is the same in both and damage maps compare sphere by sphere.
+"""
+from dataclasses import asdict, dataclass, field
+from time import perf_counter
+
+import numpy as np
+
+SLAB = (2.5, 2.0, 0.28)
+# sphere radius per scale; the FE size is a multiple of the diameter (see SlabSpec)
+SCALES = {"small": 0.025, "medium": 0.02, "paper": 0.0118}
+DEFAULT_STEPS = {"small": 800, "medium": 1500, "paper": 300}
+
+
+@dataclass
+class SlabSpec:
+    scale: str = "small"
+    radius: float = None             # default: SCALES[scale]
+    de_zone: float = 0.6             # target side of the DE zone (m), rounded to the FE grid
+    layers: int = 3                  # bridging layers
+    fe_ratio: float = 3.0            # in-plane FE size / sphere diameter
+    fe_ratio_thickness: float = 1.5  # FE size through the thickness / sphere diameter
+    impactor_side: float = 0.30
+    impactor_speed: float = 40.0
+    variant: str = "diagonal"
+    relaxation: float = 35.0
+    rotations: bool = True
+    dt_safety: float = 0.3           # × the smaller critical step (CPM under damage: notes)
+    steps: int = None                # default: DEFAULT_STEPS[scale]
+    sample_every: int = 5            # sensor histories
+    check_every: int = 50            # damage, energy and blow-up check
+    output_every: int = 200          # ParaView frames
+    young: float = 31e9              # macroscopic E of the concrete (FE)
+    poisson: float = 0.2
+    density: float = 2400.0
+    compressive_strength: float = 31e6
+    tensile_strength: float = 4.0e6  # measured with the default CPM calibration (notes)
+
+    def __post_init__(self):
+        if self.scale not in SCALES:
+            raise ValueError(f"scale must be one of {tuple(SCALES)}, got {self.scale!r}")
+        self.radius = SCALES[self.scale] if self.radius is None else self.radius
+        self.steps = DEFAULT_STEPS[self.scale] if self.steps is None else self.steps
+        for name in ("radius", "de_zone", "fe_ratio", "fe_ratio_thickness", "impactor_side",
+                     "relaxation", "young", "density"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"slab: {name} must be > 0, got {getattr(self, name)!r}")
+        if not 0 < self.dt_safety <= 1:
+            raise ValueError(f"slab: dt_safety must be in (0, 1], got {self.dt_safety!r}")
+        if int(self.steps) != self.steps or self.steps < 1:
+            raise ValueError(f"slab: steps must be a positive integer, got {self.steps!r}")
+
+
+@dataclass
+class Grid:
+    """The FE grid of the slab (square in-plane cells of size h) and the DE zone on it."""
+    h: float
+    n: tuple
+    hole_lo: np.ndarray
+    hole_hi: np.ndarray
+
+    @property
+    def width(self):
+        return self.hole_hi - self.hole_lo
+
+
+def slab_grid(spec):
+    """In-plane size h = 0.5/k m closest to fe_ratio × diameter, so that both 2.5 m and 2 m
+    are whole numbers of cells; DE zone = the central block of cells nearest de_zone."""
+    k = max(1, round(0.5 / (spec.fe_ratio * 2 * spec.radius)))
+    h = 0.5 / k
+    n = [round(SLAB[0] / h), round(SLAB[1] / h),
+         max(1, round(SLAB[2] / (spec.fe_ratio_thickness * 2 * spec.radius)))]
+    lo, hi = np.zeros(3), np.array(SLAB)
+    for axis in (0, 1):
+        cells = max(1, round(spec.de_zone / h))
+        if (n[axis] - cells) % 2:  # centred on the slab
+            cells += 1
+        start = (n[axis] - cells) // 2
+        if start < spec.layers + 1:
+            raise ValueError(f"slab: a DE zone of {cells} cells and {spec.layers} bridging "
+                             f"layers do not fit in the {n[axis]} cells along axis {axis} with "
+                             f"FE beyond them; reduce de_zone or layers, or the sphere radius")
+        lo[axis], hi[axis] = start * h, (start + cells) * h
+    return Grid(h, tuple(n), lo, hi)
+
+
+@dataclass
+class Packings:
+    slab_centres: np.ndarray
+    slab_radii: np.ndarray
+    slab_fraction: float
+    impactor_centres: np.ndarray
+    impactor_radii: np.ndarray
+
+
+def make_packings(spec):
+    from yade_side.packing import dense_box_packing, packing_fraction, sphere_arrays
+    slab_c, slab_r = sphere_arrays(dense_box_packing((0, 0, 0), SLAB, spec.radius))
+    a = spec.impactor_side
+    imp_c, imp_r = sphere_arrays(dense_box_packing((0, 0, 0), (a, a, a), spec.radius, seed=2))
+    # centred over the slab; its lowest sphere surfaces 1.1 R above the slab's highest ones,
+    # beyond the cohesive-link reach (1.5 × the sum of radii) of the first step
+    top = np.max(slab_c[:, 2] + slab_r)
+    shift = np.array([0.5 * SLAB[0] - 0.5 * a, 0.5 * SLAB[1] - 0.5 * a,
+                      top + 1.1 * spec.radius - np.min(imp_c[:, 2] - imp_r)])
+    return Packings(slab_c, slab_r, packing_fraction(slab_r, np.prod(SLAB)),
+                    imp_c + shift, imp_r)
+
+
+@dataclass
+class Sensors:
+    """Same points in both models (paper's Fig. 9): sphere ids (slab-local indices) and,
+    in the coupled model, the FE node nearest to the bridging sensor."""
+    names: list
+    sphere_index: np.ndarray      # index into the slab spheres of the model
+    fe_node: int = None           # coupled only
+    points: np.ndarray = None
+
+
+def sensor_points(spec, grid):
+    xc, yc = 0.5 * SLAB[0], 0.5 * SLAB[1]
+    zmid = 0.5 * SLAB[2]
+    w = spec.layers * grid.h
+    away = 0.5 * (xc + 0.5 * spec.impactor_side + grid.hole_hi[0])
+    return {
+        "under_impact": (xc, yc, spec.radius),
+        "de_zone": (away, yc, zmid),
+        "bridging": (grid.hole_hi[0] + 0.5 * w, yc, zmid),
+    }
+
+
+class SlabModel:
+    """Builds the YADE scene (and for `coupled` the FE model and the coupling), then steps."""
+
+    def __init__(self, spec, model):
+        if model not in ("full", "coupled"):
+            raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
+        from orchestrator.assembly import bridging_spheres, check_time_step, common_time_step
+        from orchestrator.bridging import BoxZone, Bridging
+        from yade_side import import_yade
+        from yade_side.bulk import BodySet
+        from yade_side.damage import LinkDamage
+        from yade_side.material import ConcreteParams, cpm_material
+        from yade_side.packing import add_spheres
+        from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
+
+        yade = import_yade()
+        from yade import utils
+        self.O = O = yade.Omega()
+        self.spec, self.model = spec, model
+        self.grid = grid = slab_grid(spec)
+        packs = make_packings(spec)
+        self.bridging = Bridging(BoxZone(grid.hole_lo, grid.hole_hi), spec.layers, grid.h)
+        keep = np.arange(len(packs.slab_radii))
+        if model == "coupled":
+            keep = np.flatnonzero(self.bridging.zone.depth(packs.slab_centres)
+                                  <= self.bridging.width)
+        self.slab_index = keep  # indices into the whole-slab packing
+
+        reset_scene()
+        mat = cpm_material(ConcreteParams(density=spec.density), packs.slab_fraction)
+        self.slab_ids = add_spheres(packs.slab_centres[keep], packs.slab_radii[keep], mat)
+        self.impactor_ids = add_spheres(packs.impactor_centres, packs.impactor_radii, mat)
+        self.radius = packs.slab_radii[keep]
+
+        self.fe = None
+        fe_critical = np.inf
+        if model == "coupled":
+            from fenicsx_side.mesh import box_mesh_with_hole
+            from fenicsx_side.model import ElasticModel, face
+            msh = box_mesh_with_hole((0, 0, 0), SLAB, grid.n, grid.hole_lo, grid.hole_hi)
+            supports = [(face(0, 0.0), (2,)), (face(0, SLAB[0]), (2,))]
+            self.fe = ElasticModel(msh, spec.young, spec.poisson, spec.density, supports)
+            fe_critical = self.fe.critical_dt()
+        else:
+            # simple supports: spheres touching the x = 0 and x = 2.5 faces keep z fixed
+            c, r = packs.slab_centres, packs.slab_radii
+            on_support = (c[:, 0] < 2 * r) | (c[:, 0] > SLAB[0] - 2 * r)
+            for i in self.slab_ids[on_support]:
+                O.bodies[int(i)].state.blockedDOFs = "z"
+            self.support_ids = self.slab_ids[on_support]
+        de_critical = utils.PWaveTimeStep()
+        self.dt = common_time_step(spec.dt_safety, de_critical, fe_critical)
+        check_time_step(self.dt, de_critical, fe_critical)
+        self.critical = {"de": de_critical, "fe": None if self.fe is None else fe_critical}
+        self.law, _ = cpm_engines(dt=self.dt)
+        create_cohesive_links()
+
+        self.slab = BodySet(self.slab_ids)
+        self.impactor = BodySet(self.impactor_ids)
+        self.impactor.set_velocity(np.array([0.0, 0.0, -spec.impactor_speed]))
+        self.damage = LinkDamage(self.slab_ids)
+        self.damage.record_initial()
+        self.initial_links = int(self.damage.initial.sum())
+
+        self.stepper = None
+        self.bridge_index = np.empty(0, int)
+        if model == "coupled":
+            from orchestrator.assembly import make_coupling
+            from orchestrator.timeloop import CoupledStepper
+            self.bridge_index = bridging_spheres(self.bridging, self.slab.ref_pos)
+            self.bridge = BodySet(self.slab_ids[self.bridge_index])
+            coupling = make_coupling(self.fe, self.bridging, self.bridge, self.dt, spec.variant,
+                                     spec.relaxation, spec.rotations)
+            self.stepper = CoupledStepper(O.step, self.bridge, self.fe, coupling)
+        self.in_de_zone = self.bridging.zone.depth(self.slab.ref_pos) < 0
+        self._sensor_setup()
+        self.seconds = {"yade": 0.0, "fe": 0.0, "coupling": 0.0, "output": 0.0}
+        self.steps = 0
+
+    def _sensor_setup(self):
+        points = sensor_points(self.spec, self.grid)
+        names = list(points)
+        idx = [int(np.argmin(np.linalg.norm(self.slab.ref_pos - p, axis=1))) for p in points.values()]
+        # the FE node nearest to the bridging sensor; in the full model, the sphere nearest to
+        # that node's position (the node lies on the same grid in both models)
+        node_point = self._fe_node_position(self.slab.ref_pos[idx[-1]])
+        names.append("fe_node")
+        if self.fe is not None:
+            self.fe_node = int(np.argmin(np.linalg.norm(self.fe.nodes - node_point, axis=1)))
+        else:
+            idx.append(int(np.argmin(np.linalg.norm(self.slab.ref_pos - node_point, axis=1))))
+        from yade_side.bulk import BodySet
+        self.sensor_names = names
+        self.sensor_spheres = BodySet(self.slab_ids[idx])
+        self.sensor_positions = np.vstack([self.slab.ref_pos[idx], node_point])
+
+    def _fe_node_position(self, x):
+        """Nearest node of the FE grid (the structured grid of both models)."""
+        h, hz = self.grid.h, SLAB[2] / self.grid.n[2]
+        return np.array([round(x[0] / h) * h, round(x[1] / h) * h, round(x[2] / hz) * hz])
+
+    def step(self):
+        if self.stepper is None:
+            t0 = perf_counter()
+            self.O.step()
+            self.seconds["yade"] += perf_counter() - t0
+        else:
+            self.stepper.step()
+            for key, value in self.stepper.seconds.items():
+                self.seconds[key] = value
+        self.steps += 1
+
+    def sensor_displacements(self):
+        """(n_sensors, 3) displacements now."""
+        self.sensor_spheres.read()
+        d = self.sensor_spheres.displacement()
+        if self.fe is not None:
+            d = np.vstack([d, self.fe.u[3 * self.fe_node:3 * self.fe_node + 3]])
+        return d
+
+    def energy(self):
+        """Kinetic (spheres, FE) + CPM elastic + FE strain energy (the bridging overlap is
+        counted by both models: a diagnostic for blow-ups, not a balance)."""
+        self.slab.read()
+        self.impactor.read()
+        e = self.slab.kinetic_energy() + self.impactor.kinetic_energy() + self.law.elasticEnergy()
+        if self.fe is not None:
+            e += self.fe.kinetic_energy() + self.fe.strain_energy()
+        return e
+
+    def sphere_count(self):
+        return len(self.slab_ids) + len(self.impactor_ids)
+
+
+def run(spec, model, out, quiet=False):
+    """Run one model to spec.steps and write its results folder `out` (already prepared)."""
+    from orchestrator.diagnostics import BlowUpGuard
+    from orchestrator.progress import progress
+    from orchestrator.results import write_json
+    from yade_side.output import SphereSeries
+
+    t_build = perf_counter()
+    m = SlabModel(spec, model)
+    build_s = perf_counter() - t_build
+    impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
+    guard = BlowUpGuard(impact_energy, growth=2.0)
+    spheres = SphereSeries(out / "spheres.pvd")
+    fe_series = None
+    if m.fe is not None:
+        from fenicsx_side.output import XdmfSeries
+        fe_series = XdmfSeries(out / "fe.xdmf", m.fe)
+    times, history, energy = [0.0], [m.sensor_displacements()], []
+    maps_t, maps = [], []
+
+    def output(t):
+        t0 = perf_counter()
+        dmg = m.damage.update()
+        maps_t.append(t)
+        maps.append(dmg)
+        m.slab.read()
+        spheres.write(t, m.slab.pos, m.radius, displacement=m.slab.displacement(),
+                      velocity=m.slab.vel, rotation_speed=m.slab.angvel, damage=dmg)
+        if fe_series is not None:
+            fe_series.write(t)
+        m.seconds["output"] += perf_counter() - t0
+
+    output(0.0)
+    t_run = perf_counter()
+    with progress(spec.steps, f"slab {model} ({spec.scale})", quiet) as bar:
+        for n in range(1, spec.steps + 1):
+            m.step()
+            t = n * m.dt
+            if n % spec.sample_every == 0:
+                times.append(t)
+                history.append(m.sensor_displacements())
+            if n % spec.check_every == 0 or n == spec.steps:
+                e = m.energy()
+                energy.append((t, e))
+                arrays = {"sensor displacements": history[-1]}
+                if m.fe is not None:
+                    arrays["FE displacement"] = m.fe.u
+                guard.check(n, e, **arrays)
+                bar.set_postfix(t=f"{t * 1e3:.3f} ms", E=f"{e:.4g} J", refresh=False)
+            if n % spec.output_every == 0 or n == spec.steps:
+                output(t)
+            bar.update()
+        wall = perf_counter() - t_run
+    if fe_series is not None:
+        fe_series.close()
+
+    history = np.array(history)
+    final = maps[-1]
+    volume = 4.0 / 3.0 * np.pi * m.radius**3
+    warnings = _post_run_checks(m, final)
+    summary = {
+        "model": model, "spec": asdict(spec),
+        "n_spheres": m.sphere_count(), "n_slab_spheres": len(m.slab_ids),
+        "n_fe_nodes": 0 if m.fe is None else len(m.fe.nodes),
+        "n_bridging_spheres": len(m.bridge_index),
+        "steps": spec.steps, "dt": m.dt, "critical_dt": m.critical,
+        "build_s": build_s, "wall_s": wall, "s_per_step": wall / spec.steps,
+        "time_split_s": dict(m.seconds),
+        "sensors": {name: {"position": m.sensor_positions[i].tolist(),
+                           "peak_displacement_z": float(np.abs(history[:, i, 2]).max())}
+                    for i, name in enumerate(m.sensor_names)},
+        "damage": {"initial_links": m.initial_links,
+                   "broken_links": int(np.round(final @ m.damage.initial)),
+                   "damaged_volume_m3": float(final @ volume),
+                   "max_bridging_damage": float(final[m.bridge_index].max(initial=0.0))},
+        "impact_energy_J": impact_energy,
+        "energy": energy,
+        "warnings": warnings,
+    }
+    write_json(out / "summary.json", summary)
+    _write_sensors(out / "sensors.csv", m.sensor_names, np.array(times), history)
+    np.savez(out / "damage.npz", times=np.array(maps_t), damage=np.array(maps),
+             slab_index=m.slab_index, positions=m.slab.ref_pos, radius=m.radius,
+             in_de_zone=m.in_de_zone)
+    plot_run(out, summary, np.array(times), history, m.slab.ref_pos, final, m.in_de_zone)
+    for w in warnings:
+        print(f"WARNING: {w}")
+    return summary
+
+
+def _post_run_checks(m, damage):
+    """The paper's two checks: the FE stays elastic; the bridging spheres stay undamaged."""
+    warnings = []
+    spec = m.spec
+    if m.fe is not None:
+        s = m.fe.stress()
+        if s.max_principal.max() > spec.tensile_strength:
+            warnings.append(f"FE principal stress {s.max_principal.max() / 1e6:.2f} MPa exceeds "
+                            f"the tensile strength {spec.tensile_strength / 1e6:.2f} MPa: the DE "
+                            f"zone may be too small")
+        if s.von_mises.max() > spec.compressive_strength:
+            warnings.append(f"FE von Mises stress {s.von_mises.max() / 1e6:.2f} MPa exceeds the "
+                            f"compressive strength {spec.compressive_strength / 1e6:.1f} MPa")
+    bridged = damage[m.bridge_index]
+    if bridged.size and bridged.max() > 0:
+        warnings.append(f"{np.count_nonzero(bridged)} bridging spheres are damaged (max "
+                        f"{bridged.max():.2f}): the DE zone may be too small")
+    return warnings
+
+
+def _write_sensors(path, names, times, history):
+    from orchestrator.results import write_atomic
+    header = ["t"] + [f"{n}_{c}" for n in names for c in "xyz"]
+    rows = np.column_stack([times, history.reshape(len(times), -1)])
+    lines = [",".join(header)] + [",".join(f"{v:.9e}" for v in row) for row in rows]
+    write_atomic(path, "\n".join(lines) + "\n")
+
+
+def read_sensors(path):
+    """(times, names, history (n_times, n_sensors, 3)) of a sensors.csv."""
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return data[:, 0], [h[:-2] for h in header[1::3]], data[:, 1:].reshape(len(data), -1, 3)
+
+
+def plot_run(out, summary, times, history, positions, damage, in_de_zone):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for i, name in enumerate(summary["sensors"]):
+        ax.plot(times * 1e3, history[:, i, 2] * 1e3, label=name)
+    ax.set(xlabel="time (ms)", ylabel="z displacement (mm)",
+           title=f"slab, {summary['model']} model: sensor histories")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / "sensors.png", dpi=120)
+    plt.close(fig)
+    fig, ax = plt.subplots(figsize=(6, 5))
+    damage_map(ax, positions, damage, f"{summary['model']}: damage (broken / initial links)")
+    fig.tight_layout()
+    fig.savefig(out / "damage.png", dpi=120)
+    plt.close(fig)
+
+
+def damage_map(ax, positions, damage, title):
+    """Plan view of the damage per sphere, the most damaged of a column on top."""
+    order = np.argsort(damage)
+    sc = ax.scatter(positions[order, 0], positions[order, 1], c=damage[order], s=6,
+                    cmap="inferno_r", vmin=0, vmax=1)
+    ax.set(xlabel="x (m)", ylabel="y (m)", title=title, aspect="equal")
+    ax.figure.colorbar(sc, ax=ax, shrink=0.8)
