@@ -107,7 +107,9 @@ def make_packings(spec):
     imp_c, imp_r = sphere_arrays(dense_box_packing((0, 0, 0), (a, a, a), spec.radius, seed=2))
     # centred over the slab; its lowest sphere surfaces 1.1 R above the slab's highest ones,
     # beyond the cohesive-link reach (1.5 × the sum of radii) of the first step
-    top = np.max(slab_c[:, 2] + slab_r)
+    footprint = np.all(np.abs(slab_c[:, :2] - np.array(SLAB[:2]) / 2) < 0.5 * a + 2 * slab_r[:, None],
+                       axis=1)
+    top = np.max((slab_c[:, 2] + slab_r)[footprint])
     shift = np.array([0.5 * SLAB[0] - 0.5 * a, 0.5 * SLAB[1] - 0.5 * a,
                       top + 1.1 * spec.radius - np.min(imp_c[:, 2] - imp_r)])
     return Packings(slab_c, slab_r, packing_fraction(slab_r, np.prod(SLAB)),

@@ -1,0 +1,81 @@
+"""The slab case end to end at small scale, and its invariants."""
+import json
+
+import numpy as np
+import pytest
+
+from cases import slab
+from orchestrator.cli import main
+
+STEPS = 400  # contact starts after step ~250 at small scale
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("slab")
+    for model in ("full", "coupled"):
+        assert main(["slab", "--model", model, "--scale", "small", "--steps", str(STEPS),
+                     "--output-every", "150", "--out", str(root / model), "--quiet"]) == 0
+    assert main(["compare", str(root / "full"), str(root / "coupled"),
+                 "--out", str(root / "cmp")]) == 0
+    return root
+
+
+def test_both_models_run_and_compare_with_finite_values(runs):
+    comparison = json.loads((runs / "cmp" / "comparison.json").read_text())
+    for s in comparison["sensors"].values():
+        assert np.isfinite(s["peak_full"]) and np.isfinite(s["peak_coupled"])
+    assert np.isfinite(comparison["speedup_per_step"])
+    for name in ("histories.png", "damage_maps.png"):
+        assert (runs / "cmp" / name).stat().st_size > 0
+    for model in ("full", "coupled"):
+        summary = json.loads((runs / model / "summary.json").read_text())
+        assert summary["steps"] == STEPS
+        assert set(summary["time_split_s"]) == {"yade", "fe", "coupling", "output"}
+        assert (runs / model / "spheres.pvd").is_file()
+    assert (runs / "coupled" / "fe.xdmf").is_file()
+
+
+def test_a_results_folder_is_never_overwritten(runs, capsys):
+    assert main(["slab", "--model", "full", "--out", str(runs / "full"), "--steps", "1"]) == 2
+    assert "--force" in capsys.readouterr().err
+
+
+def test_model_invariants():
+    """Before contact the impactor flies rigidly (its internal forces cancel: momentum and
+    velocity exact) and the slab is at rest; no cohesive link joins impactor and slab; the
+    supports hold: supported spheres (full) and the FE support faces (coupled) keep u_z = 0."""
+    from yade_side import import_yade
+    O = import_yade().Omega()
+    spec = slab.SlabSpec(scale="small", steps=400)
+    for model in ("full", "coupled"):
+        m = slab.SlabModel(spec, model)
+        impactor, slab_ids = set(m.impactor_ids.tolist()), set(m.slab_ids.tolist())
+        links = [(i.id1, i.id2) for i in O.interactions if i.phys.isCohesive]
+        assert not any((a in impactor) != (b in impactor) for a, b in links)
+        p0 = m.impactor.mass @ m.impactor.read()[:, 3:6]
+        for _ in range(100):
+            m.step()
+        m.impactor.read()
+        assert np.allclose(m.impactor.mass @ m.impactor.vel, p0, rtol=0,
+                           atol=1e-12 * np.linalg.norm(p0))
+        assert np.allclose(m.impactor.vel, [0, 0, -spec.impactor_speed], rtol=0,
+                           atol=1e-12 * spec.impactor_speed)
+        assert not m.slab.read()[:, 3:6].any(), "slab at rest before contact"
+        for _ in range(spec.steps - 100):
+            m.step()
+        m.slab.read()
+        assert np.abs(m.slab.vel).max() > 0, "the impact happened"
+        if model == "full":
+            z = {int(i): O.bodies[int(i)].state.pos[2] - O.bodies[int(i)].state.refPos[2]
+                 for i in m.support_ids}
+            assert len(z) > 0 and not any(z.values())
+        else:
+            on_support = np.isclose(m.fe.nodes[:, 0], 0) | np.isclose(m.fe.nodes[:, 0], slab.SLAB[0])
+            assert on_support.any() and not m.fe.u[3 * np.flatnonzero(on_support) + 2].any()
+            assert len(slab_ids) < 9514  # a DE zone, not the whole slab
+
+
+def test_grid_rejects_a_de_zone_that_does_not_fit():
+    with pytest.raises(ValueError, match="do not fit"):
+        slab.slab_grid(slab.SlabSpec(scale="small", de_zone=1.8))
