@@ -7,7 +7,7 @@ One description, two models:
 Both models take their slab spheres from the same packing of the whole slab, so the DE
 zone's micro-structure is the same in both and damage maps compare sphere by sphere.
 """
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from time import perf_counter
 
 import numpy as np
@@ -114,16 +114,6 @@ def make_packings(spec):
                       top + 1.1 * spec.radius - np.min(imp_c[:, 2] - imp_r)])
     return Packings(slab_c, slab_r, packing_fraction(slab_r, np.prod(SLAB)),
                     imp_c + shift, imp_r)
-
-
-@dataclass
-class Sensors:
-    """Same points in both models (paper's Fig. 9): sphere ids (slab-local indices) and,
-    in the coupled model, the FE node nearest to the bridging sensor."""
-    names: list
-    sphere_index: np.ndarray      # index into the slab spheres of the model
-    fe_node: int = None           # coupled only
-    points: np.ndarray = None
 
 
 def sensor_points(spec, grid):

@@ -1,7 +1,6 @@
 """The coupled time step on pure-numpy 1D partners (a spring chain and a lumped bar)."""
 import numpy as np
 import pytest
-import scipy.sparse as sp
 
 from orchestrator.bridging import Bridging, HalfSpaceZone
 from orchestrator.coupling import Coupling

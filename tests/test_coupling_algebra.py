@@ -96,7 +96,7 @@ def test_diagonalised_scheme_is_the_penalty_method():
     g = np.concatenate([d.ravel(), w.ravel()]) - G @ u
     p = 1.0 / cpl.solver.diagonal
     f_q, f_u = -p * g, G.T @ (p * g)  # forces from the penalty energy
-    n, dt = len(ops["de_mass"]), ops["dt"]
+    dt = ops["dt"]
     b = ops["beta"]
     dq_ref = dt**2 * f_q / np.concatenate([np.repeat(b * ops["de_mass"], 3),
                                            np.repeat(b * ops["de_inertia"], 3)])
