@@ -1,0 +1,26 @@
+"""`batch`: many case files, or one case with a parameter table, N runs at a time
+(the Docker image's entrypoint)."""
+NAME = "batch"
+HELP = "batch CASE.toml [CASE.toml ...] [--table PARAMS.csv] -j N --out DIR: runs and a summary CSV"
+
+
+def configure(p):
+    p.add_argument("cases", nargs="+", help="case files (one, with --table)")
+    p.add_argument("--table", help="parameter table: CSV of dotted case keys, one run per row")
+    p.add_argument("-j", "--jobs", type=int, default=1, help="runs at a time (default 1)")
+    p.add_argument("--out", required=True, help="folder for the runs and batch_summary.csv")
+    p.add_argument("--force", action="store_true", help="replace an existing batch folder")
+
+
+def run(args):
+    from orchestrator.batch import plan, run_batch
+    from orchestrator.results import prepare_out
+    jobs = plan(args.cases, args.table)
+    out = prepare_out(args.out, args.force)
+    rows = run_batch(jobs, out, args.jobs)
+    failed = [r for r in rows if r["status"] != "ok"]
+    print(f"batch: {len(rows) - len(failed)} of {len(rows)} runs ok; summary in "
+          f"{out / 'batch_summary.csv'}")
+    for r in failed:
+        print(f"  failed {r['name']}: {r['error']}")
+    return 1 if failed else 0
