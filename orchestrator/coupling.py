@@ -22,9 +22,16 @@ class Correction:
     fe_dofs: np.ndarray   # FE dofs touched by the coupling
     du: np.ndarray        # corrections of u[fe_dofs]
     force: np.ndarray     # multiplier forces λ/r, translations then rotations (3n or 6n)
+    fe_force: np.ndarray  # Gᵀ force on fe_dofs
     gap_pred: np.ndarray  # constraint residual q̃ − G ũ of the predictor
     q: np.ndarray         # corrected sphere dofs (d, then ω), flat
-    Gu: np.ndarray        # G u of the corrected FE field; the residual is q − Gu
+    u: np.ndarray         # corrected FE displacement on fe_dofs
+    G: sp.csr_matrix      # the constraint operator on fe_dofs
+
+    @property
+    def Gu(self):
+        """G u of the corrected FE field (the residual is q − Gu); on demand, not every step."""
+        return self.G @ self.u
 
 
 class Coupling:
@@ -81,15 +88,17 @@ class Coupling:
         q = np.asarray(d, float).ravel()
         if self.rotations:
             q = np.concatenate([q, np.asarray(w, float).ravel()])
-        gap_pred = q - self.G @ u[self.fe_dofs]
+        u = u[self.fe_dofs]
+        gap_pred = q - self.G @ u
         lam = self.solver.solve(gap_pred)
         scale = self.dt * self.dt / self.relaxation
         dq = -scale * self.de_inv_mass * lam
-        du = scale * self.fe_inv_mass * (self.G.T @ lam)
+        GTlam = self.G.T @ lam
+        du = scale * self.fe_inv_mass * GTlam
         n3 = 3 * self.n
         dw = dq[n3:].reshape(-1, 3) if self.rotations else np.zeros((self.n, 3))
         return Correction(dq[:n3].reshape(-1, 3), dw, self.fe_dofs, du, lam / self.relaxation,
-                          gap_pred, q + dq, q - gap_pred + self.G @ du)
+                          GTlam / self.relaxation, gap_pred, q + dq, u + du, self.G)
 
 
 def _check_positive(name, values):

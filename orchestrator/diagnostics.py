@@ -10,7 +10,8 @@ class BlowUp(RuntimeError):
 
 class ExchangeMeter:
     """Work of the multiplier forces, accumulated with the central-difference rule
-    W += f(t)·(x(t+Δt) − x(t−Δt))/2 from the corrections of successive steps.
+    W += f(t)·(x(t+Δt) − x(t−Δt))/2 from the corrections of successive steps (x: the corrected
+    sphere dofs q and the constrained FE values G u).
 
     `to_fe`: energy given to the FE model; `net`: energy the coupling creates or dissipates
     (zero when the constraints hold exactly, as with the full solver and r = 1).
@@ -22,11 +23,13 @@ class ExchangeMeter:
         self._history = []  # corrected (q, Gu) of the last two steps
 
     def update(self, corr):
-        self._history.append((corr.q, corr.Gu))
+        # f·G(u2 − u0) as (Gᵀf)·(u2 − u0): no extra product with G per step
+        self._history.append((corr.q, corr.u))
         if len(self._history) == 3:
-            (q0, Gu0), _, (q2, Gu2) = self._history
-            self.to_fe += 0.5 * float(corr.force @ (Gu2 - Gu0))
-            self.net += 0.5 * float(corr.force @ ((Gu2 - Gu0) - (q2 - q0)))
+            (q0, u0), _, (q2, u2) = self._history
+            to_fe = 0.5 * float(corr.fe_force @ (u2 - u0))
+            self.to_fe += to_fe
+            self.net += to_fe - 0.5 * float(corr.force @ (q2 - q0))
             self._history.pop(0)
 
 

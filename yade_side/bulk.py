@@ -1,14 +1,16 @@
 """Bulk state exchange with YADE for a set of bodies, as numpy arrays.
 
 One call reads or writes the 13 state values of every body of the set (pos, vel, angVel,
-ori as x, y, z, w) through YADE's C++ `Subdomain.get/setStateValuesFromIds`, which works in a
-plain serial scene: no per-body Python in the time loop.
+ori as x, y, z, w): by a numpy gather/scatter in YADE's memory when its layout is verified
+(yade_side.state_memory), else through YADE's C++ `Subdomain.get/setStateValuesFromIds`, which
+works in a plain serial scene. No per-body Python in the time loop either way.
 """
 import array
 
 import numpy as np
 
 from yade_side import import_yade
+from yade_side.state_memory import locate
 
 _POS, _VEL, _ANGVEL, _ORI = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 13)
 
@@ -19,7 +21,7 @@ class BodySet:
     vector since then: θ(t+Δt) = θ(t) + Δt ω(t+Δt/2), the central-difference update of the
     rotation that NewtonIntegrator applies to the orientation."""
 
-    def __init__(self, ids):
+    def __init__(self, ids, direct=True):
         yade = import_yade()
         self._O = yade.Omega()
         self._subdomain = yade.wrapper.Subdomain()
@@ -30,6 +32,9 @@ class BodySet:
         self.inertia = np.array([b.state.inertia[0] for b in bodies])
         self.radius = np.array([b.shape.radius for b in bodies])
         self.state = np.empty((len(self.ids), 13))
+        self._memory = None
+        if direct:
+            self._memory = locate(self._O.bodies, self._id_list, self._api_get, self._api_put)
         self.read()
         self.ref_pos = self.state[:, _POS].copy()
         self.rotation = np.zeros((len(self.ids), 3))
@@ -38,14 +43,31 @@ class BodySet:
     def __len__(self):
         return len(self.ids)
 
+    @property
+    def direct(self):
+        """True when reads and writes go straight to YADE's memory."""
+        return self._memory is not None
+
     def read(self):
-        # array.array converts YADE's list of floats in C: twice as fast as np.array(list)
-        values = array.array("d", self._subdomain.getStateValuesFromIds(self._id_list))
-        self.state[:] = np.frombuffer(values, float).reshape(-1, 13)
+        if self._memory is not None:
+            self._memory.read(self.state)
+        else:
+            # array.array converts YADE's list of floats in C: twice as fast as np.array(list)
+            values = array.array("d", self._api_get(self._id_list))
+            self.state[:] = np.frombuffer(values, float).reshape(-1, 13)
         return self.state
 
     def write(self):
-        self._subdomain.setStateValuesFromIds(self._id_list, array.array("d", self.state.tobytes()))
+        if self._memory is not None:
+            self._memory.write(self.state)
+        else:
+            self._api_put(self._id_list, self.state.ravel().tolist())
+
+    def _api_get(self, ids):
+        return self._subdomain.getStateValuesFromIds(ids)
+
+    def _api_put(self, ids, values):
+        self._subdomain.setStateValuesFromIds(ids, values)
 
     @property
     def pos(self):
@@ -76,9 +98,10 @@ class BodySet:
         orientation turned by dθ): the step stays an exact central difference. One write."""
         self.state[:, _POS] += dd
         self.state[:, _VEL] += dd / dt
-        self.state[:, _ANGVEL] += dtheta / dt
-        self.state[:, _ORI] = quaternion_product(rotation_quaternion(dtheta), self.ori)
-        self.rotation[:] = self.rotation_pred + dtheta
+        np.add(self.rotation_pred, dtheta, out=self.rotation)
+        if dtheta.any():  # rotations coupled
+            self.state[:, _ANGVEL] += dtheta / dt
+            self.state[:, _ORI] = quaternion_product(rotation_quaternion(dtheta), self.ori)
         self.write()
 
     def set_velocity(self, vel, angvel=None):
@@ -96,16 +119,22 @@ class BodySet:
 
 def rotation_quaternion(theta):
     """Unit quaternions (x, y, z, w) of the rotation vectors theta (n, 3)."""
-    angle = np.linalg.norm(theta, axis=1)
+    angle = np.sqrt(np.einsum("ij,ij->i", theta, theta))
     half = 0.5 * angle
-    # sin(a/2)/a → 1/2 as a → 0; np.sinc(x) = sin(πx)/(πx)
-    s = 0.5 * np.sinc(half / np.pi)
-    return np.column_stack([theta * s[:, None], np.cos(half)])
+    # sin(a/2)/a, → 1/2 as a → 0
+    s = np.divide(np.sin(half), angle, out=np.full(len(angle), 0.5), where=angle > 0)
+    q = np.empty((len(theta), 4))
+    np.multiply(theta, s[:, None], out=q[:, :3])
+    np.cos(half, out=q[:, 3])
+    return q
 
 
 def quaternion_product(p, q):
     """Hamilton products p q of quaternions stored (x, y, z, w), row by row."""
-    pv, pw = p[:, :3], p[:, 3:]
-    qv, qw = q[:, :3], q[:, 3:]
-    return np.column_stack([pw * qv + qw * pv + np.cross(pv, qv),
-                            pw * qw - np.einsum("ij,ij->i", pv, qv)[:, None]])
+    (px, py, pz, pw), (qx, qy, qz, qw) = p.T, q.T
+    pq = np.empty((4, len(p)))
+    pq[0] = pw * qx + qw * px + py * qz - pz * qy
+    pq[1] = pw * qy + qw * py + pz * qx - px * qz
+    pq[2] = pw * qz + qw * pz + px * qy - py * qx
+    pq[3] = pw * qw - px * qx - py * qy - pz * qz
+    return pq.T
