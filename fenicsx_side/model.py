@@ -1,7 +1,10 @@
 """Linear-elastic, small-strain, lumped-mass explicit FE model (vector P1) on a dolfinx mesh.
 
-Serial by design: the state lives in numpy arrays and the coupling works on scipy matrices.
-Dof layout is dolfinx's blocked one: dof = 3 * node + component.
+The state lives in numpy arrays over the dofs this rank owns (all of them in serial); the
+stiffness is applied by PETSc, so the same model runs distributed under MPI (see
+fenicsx_side.distributed for driving it from one rank). Dof layout is dolfinx's blocked one:
+dof = 3 * node + component, in the rank's local numbering; `global_dofs` maps it to the
+global numbering that point_operators' columns use.
 """
 from dataclasses import dataclass
 
@@ -12,7 +15,9 @@ import ufl
 from dolfinx import fem, geometry
 from dolfinx.fem import petsc
 from dolfinx.mesh import locate_entities_boundary
+from mpi4py import MPI
 from petsc4py import PETSc
+from slepc4py import SLEPc
 
 # relative accuracy asked of the largest eigenvalue in critical_dt
 _EIG_TOL = 1e-10
@@ -44,15 +49,15 @@ class ElasticModel:
     State: u = displacement at time t, v = velocity at t - dt/2 (half step, like YADE's
     NewtonIntegrator). Assigning u or v copies into the model's buffers.
 
-    Attributes: ndof; nodes (ndof/3, 3), node of dof 3 i + c is i; cell_nodes (n_cells, 4 or 8);
-    mass (ndof,) lumped row sums; K scipy csr copy of the stiffness (predict multiplies by the
-    same PETSc matrix, which is faster; neither has Dirichlet rows); fixed (ndof,) bool;
-    f_ext (ndof,) external nodal force; t.
+    Attributes (over the dofs and cells this rank owns; in serial, all of them): ndof;
+    nodes (ndof/3, 3), node of dof 3 i + c is i; cell_nodes (n_cells, 4 or 8) local node
+    indices, ghost nodes after the owned ones; mass (ndof,) lumped row sums; K scipy csr copy of
+    the owned rows of the stiffness, global columns (predict multiplies by the same PETSc
+    matrix, which is faster; neither has Dirichlet rows); fixed (ndof,) bool; f_ext (ndof,)
+    external nodal force; t; comm; global_dofs (ndof,) and ndof_global.
     """
 
     def __init__(self, msh, E, nu, rho, dirichlet=(), quadrature_degree=2):
-        if msh.comm.size != 1:
-            raise ValueError(f"ElasticModel is serial; the mesh lives on {msh.comm.size} ranks")
         if msh.geometry.cmap.degree != 1:
             raise ValueError(f"need an affine/multilinear mesh geometry, got degree "
                              f"{msh.geometry.cmap.degree}")
@@ -60,26 +65,36 @@ class ElasticModel:
             raise ValueError(f"need E > 0, rho > 0 and -1 < nu < 0.5; got E={E!r}, nu={nu!r}, "
                              f"rho={rho!r}")
         self.msh = msh
+        self.comm = msh.comm
         self.E, self.nu, self.rho = float(E), float(nu), float(rho)
         self.mu = E / (2 * (1 + nu))
         self.lmbda = E * nu / ((1 + nu) * (1 - 2 * nu))
         self.V = fem.VectorFunctionSpace(msh, ("Lagrange", 1))
         self.dx = ufl.dx(domain=msh, metadata={"quadrature_degree": quadrature_degree})
 
-        self.nodes = self.V.tabulate_dof_coordinates()
-        self.ndof = 3 * len(self.nodes)
-        n_cells = msh.topology.index_map(msh.topology.dim).size_local
-        self.cell_nodes = self.V.dofmap.list.array.reshape(n_cells, -1)
         self.basis = self.V.element.basix_element  # scalar P1, also the geometry's element
+        index_map = self.V.dofmap.index_map
+        owned = index_map.size_local
+        self._local_nodes = self.V.tabulate_dof_coordinates()  # owned nodes, then ghosts
+        self.nodes = self._local_nodes[:owned]
+        self.ndof = 3 * owned
+        self.ndof_global = 3 * index_map.size_global
+        self._global_node = index_map.local_to_global(
+            np.arange(len(self._local_nodes), dtype=np.int32))
+        self.global_dofs = (3 * self._global_node[:owned, None] + np.arange(3)).ravel()
+        n_cells = msh.topology.index_map(msh.topology.dim).size_local
+        self.cell_nodes = self.V.dofmap.list.array.reshape(-1, self.basis.dim)[:n_cells]
 
         u, w = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
         stiffness = fem.form(ufl.inner(self._sigma(u), _eps(w)) * self.dx)
         self._K_petsc = petsc.assemble_matrix(stiffness)
         self._K_petsc.assemble()
         indptr, indices, data = self._K_petsc.getValuesCSR()
-        self.K = sp.csr_matrix((data, indices, indptr), shape=(self.ndof, self.ndof))
+        self.K = sp.csr_matrix((data, indices, indptr), shape=(self.ndof, self.ndof_global))
         ones = fem.Constant(msh, PETSc.ScalarType((1.0, 1.0, 1.0)))
-        self.mass = petsc.assemble_vector(fem.form(rho * ufl.inner(ones, w) * self.dx)).array.copy()
+        mass = petsc.assemble_vector(fem.form(rho * ufl.inner(ones, w) * self.dx))
+        mass.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.mass = mass.array.copy()
         bad = np.flatnonzero(~(self.mass > 0))
         if bad.size:
             raise ValueError(f"lumped mass of dof {bad[0]} (node at {self.nodes[bad[0] // 3]}) is "
@@ -92,8 +107,8 @@ class ElasticModel:
         self._u, self._v = np.zeros(self.ndof), np.zeros(self.ndof)
         self._work = np.zeros(self.ndof)
         # PETSc views of the numpy buffers: K.mult is ~2x faster than scipy's csr mat-vec here
-        self._u_vec = PETSc.Vec().createWithArray(self._u, comm=PETSc.COMM_SELF)
-        self._work_vec = PETSc.Vec().createWithArray(self._work, comm=PETSc.COMM_SELF)
+        self._u_vec, self._work_vec = (PETSc.Vec().createWithArray(
+            a, size=(self.ndof, PETSc.DECIDE), comm=self.comm) for a in (self._u, self._work))
         self.t = 0.0
         self._tree = None
         self._stress_op = None
@@ -140,76 +155,109 @@ class ElasticModel:
 
     def critical_dt(self):
         """2/ω_max of M⁻¹K over the free dofs (lumped mass), from the largest eigenvalue of
-        M^-½ K M^-½ (Lanczos), raised by ARPACK's relative tolerance so that the step is not
-        overestimated."""
-        free = np.flatnonzero(~self.fixed)
-        scale = sp.diags(1.0 / np.sqrt(self.mass[free]))
-        S = (scale @ self.K[free][:, free] @ scale).tocsr()
-        lam = spla.eigsh(S, k=1, which="LA", tol=_EIG_TOL, return_eigenvectors=False)[0]
+        M^-½ K M^-½ (SLEPc's Krylov-Schur, collective), raised by its relative tolerance so
+        that the step is not overestimated. Fixed dofs get a zero scale: eigenvalue 0."""
+        S = self._K_petsc.copy()
+        scale = S.createVecLeft()
+        scale.array[:] = np.where(self.fixed, 0.0, 1.0 / np.sqrt(self.mass))
+        S.diagonalScale(scale, scale)
+        eps = SLEPc.EPS().create(self.comm)
+        eps.setOperators(S)
+        eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
+        eps.setTolerances(_EIG_TOL, 1000)
+        eps.solve()
+        if eps.getConverged() < 1:
+            raise RuntimeError("critical_dt: the largest eigenvalue did not converge")
+        lam = eps.getEigenvalue(0).real
         return 2.0 / np.sqrt(lam * (1 + _EIG_TOL))
 
     # --- energies ---------------------------------------------------------------------------
     def kinetic_energy(self, weights=None):
         """½ Σ w m v² with the half-step velocity v(t − dt/2); weights per dof (default 1)."""
         w = 1.0 if weights is None else weights
-        return 0.5 * float(np.sum(w * self.mass * self._v ** 2))
+        return self.comm.allreduce(0.5 * float(np.sum(w * self.mass * self._v ** 2)))
 
     def strain_energy(self, weights=None):
         """½ Σ w u (K u) at time t; weights per dof (default 1)."""
         w = 1.0 if weights is None else weights
-        return 0.5 * float(np.sum(w * self._u * (self.K @ self._u)))
+        Ku = self._K_petsc.createVecLeft()
+        self._K_petsc.mult(self._u_vec, Ku)
+        return self.comm.allreduce(0.5 * float(np.sum(w * self._u * Ku.array)))
 
     # --- coupling operators -----------------------------------------------------------------
     def locate(self, points):
         """Cell containing each point and the point's reference coordinates in it: (cells, X).
 
         A point on a face shared by cells gets one of them. Raises ValueError naming the first
-        point that is in no cell.
+        point that is in no cell (serial: in no cell of the mesh; under MPI: in no cell this
+        rank owns).
         """
         points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+        found, cells, X = self._locate_owned(points)
+        _check_located(found, points)
+        return cells, X
+
+    def _locate_owned(self, points):
+        """(found mask, cells, X) over the cells this rank owns; cells and X of the found
+        points only."""
         if self._tree is None:
             self._tree = geometry.BoundingBoxTree(self.msh, self.msh.topology.dim)
         candidates = geometry.compute_collisions(self._tree, points)
         colliding = geometry.compute_colliding_cells(self.msh, candidates, points)
-        counts = np.diff(colliding.offsets)
-        outside = np.flatnonzero(counts == 0)
-        if outside.size:
-            j = outside[0]
-            raise ValueError(f"point {j} at {points[j].tolist()} is in no FE cell "
-                             f"({outside.size} of {len(points)} points are outside the mesh)")
+        pair_point = np.repeat(np.arange(len(points)), np.diff(colliding.offsets))
+        pair_cell = colliding.array
+        owned = pair_cell < len(self.cell_nodes)  # ghost cells are another rank's
+        pair_point, pair_cell = pair_point[owned], pair_cell[owned]
         # Distorted hexahedra are located by their vertices' convex hull: keep, among the
         # colliding cells, the one whose reference coordinates are least outside the cell.
-        pair_point = np.repeat(np.arange(len(points)), counts)
-        pair_cell = colliding.array
         X = self._pull_back(points[pair_point], pair_cell)
         miss = self._reference_excess(X)
         order = np.lexsort((miss, pair_point))
-        first = order[colliding.offsets[:-1]]
-        return pair_cell[first], X[first]
+        first = order[np.flatnonzero(np.diff(pair_point[order], prepend=-1))]
+        found = np.zeros(len(points), bool)
+        found[pair_point[first]] = True
+        return found, pair_cell[first], X[first]
 
     def point_operators(self, points):
-        """(k, h), csr of shape (3n, ndof): k u = u(x_j); h u = ½ curl u (x_j) (METHOD.md)."""
-        points = np.asarray(points, float).reshape(-1, 3)
-        cells, X = self.locate(points)
+        """(k, h), csr of shape (3n, ndof_global): k u = u(x_j); h u = ½ curl u (x_j)
+        (METHOD.md). Columns are global dofs; under MPI each point is evaluated by the lowest
+        rank owning a cell that contains it, and every rank gets the whole operators."""
+        points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+        found, cells, X = self._locate_owned(points)
+        size, rank = self.comm.size, self.comm.rank
+        owner = np.where(found, rank, size).astype(np.int64)
+        self.comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
+        _check_located(owner < size, points)
+        mine = owner[found] == rank
+        cells, X = cells[mine], X[mine]
         n, nv = len(points), self.cell_nodes.shape[1]
         N, grad = self._basis_at(cells, X)
-        node = self.cell_nodes[cells]                           # (n, nv)
-        j = np.broadcast_to(np.arange(n)[:, None], (n, nv))
+        node = self._global_node[self.cell_nodes[cells]]        # (m, nv)
+        j = np.broadcast_to(np.flatnonzero(found)[mine][:, None], node.shape)
         rows = [3 * j + c for c in range(3)]
         cols = [3 * node + c for c in range(3)]
-        shape = (3 * n, self.ndof)
-        k = _csr([N] * 3, rows, cols, shape)
         # ½ [g]× with g = ∇N_i(x_j): its 6 entries as (row a, column b, component of g, sign)
         cross = ((0, 1, 2, -1), (0, 2, 1, 1), (1, 0, 2, 1), (1, 2, 0, -1), (2, 0, 1, -1),
                  (2, 1, 0, 1))
-        h = _csr([0.5 * sign * grad[:, :, g] for _, _, g, sign in cross],
-                 [rows[a] for a, _, _, _ in cross], [cols[b] for _, b, _, _ in cross], shape)
+        shape = (3 * n, self.ndof_global)
+        k = self._gathered_csr([N] * 3, rows, cols, shape)
+        h = self._gathered_csr([0.5 * sign * grad[:, :, g] for _, _, g, sign in cross],
+                               [rows[a] for a, _, _, _ in cross],
+                               [cols[b] for _, b, _, _ in cross], shape)
         return k, h
+
+    def _gathered_csr(self, values, rows, cols, shape):
+        """csr matrix from every rank's lists of equally shaped arrays of entries and indices."""
+        flat = lambda arrays: np.concatenate([a.ravel() for a in arrays])
+        parts = self.comm.allgather((flat(values), flat(rows), flat(cols)))
+        v, r, c = (np.concatenate(p) for p in zip(*parts))
+        return sp.csr_matrix((v, (r, c)), shape=shape)
 
     def _pull_back(self, points, cells):
         """Reference coordinates of points in the given cells (vectorised Newton iteration;
         one step is exact on tetrahedra and parallelepipeds)."""
-        xc = self.nodes[self.cell_nodes[cells]]                  # (n, nv, 3)
+        xc = self._local_nodes[self.cell_nodes[cells]]           # (n, nv, 3)
         X = np.tile(self._reference_centre(), (len(points), 1))
         for _ in range(_PULL_BACK_ITERATIONS):
             N, _, J = self._map(X, xc)
@@ -230,7 +278,7 @@ class ElasticModel:
 
     def _basis_at(self, cells, X):
         """Values (n, nv) and physical gradients (n, nv, 3) of the cells' shape functions."""
-        N, dN, J = self._map(X, self.nodes[self.cell_nodes[cells]])
+        N, dN, J = self._map(X, self._local_nodes[self.cell_nodes[cells]])
         return N, np.einsum("dpi,pda->pia", dN, np.linalg.inv(J))
 
     def _reference_centre(self):
@@ -245,29 +293,32 @@ class ElasticModel:
     # --- stress -----------------------------------------------------------------------------
     def stress(self):
         """Cell-average (DG0) Cauchy stress of the current u, with von Mises and largest
-        principal stress per cell."""
+        principal stress per owned cell."""
         if self._stress_op is None:
             self._stress_op = self._cell_average_stress_operator()
-        sigma = (self._stress_op @ self._u).reshape(-1, 3, 3)
+        A, cell_rows = self._stress_op
+        sigma_vec = A.createVecLeft()
+        A.mult(self._u_vec, sigma_vec)
+        sigma = sigma_vec.array[cell_rows].reshape(-1, 3, 3)
         dev = sigma - np.trace(sigma, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
         von_mises = np.sqrt(1.5 * np.einsum("cab,cab->c", dev, dev))
         return CellStress(sigma, von_mises, np.linalg.eigvalsh(sigma)[:, -1])
 
     def _cell_average_stress_operator(self):
-        """Sparse (9 n_cells, ndof): u ↦ (1/|cell|) ∫_cell σ(u), row 9 c + 3 a + b."""
+        """PETSc matrix u ↦ (1/|cell|) ∫_cell σ(u) over the DG0 tensor dofs, and the rows of
+        its owned part in cell order (row 9 c + 3 a + b)."""
         T = fem.TensorFunctionSpace(self.msh, ("DG", 0))
         Q = fem.FunctionSpace(self.msh, ("DG", 0))
         A = petsc.assemble_matrix(fem.form(ufl.inner(self._sigma(ufl.TrialFunction(self.V)),
                                                      ufl.TestFunction(T)) * self.dx))
         A.assemble()
-        indptr, indices, data = A.getValuesCSR()
-        A = sp.csr_matrix((data, indices, indptr), shape=A.getSize())
         volume = petsc.assemble_vector(fem.form(ufl.TestFunction(Q) * self.dx)).array
         n_cells = len(self.cell_nodes)
-        tensor_dof = T.dofmap.list.array.reshape(n_cells, 1)
-        rows = (9 * tensor_dof + np.arange(9)).ravel()
-        cell_volume = np.repeat(volume[Q.dofmap.list.array.reshape(n_cells)], 9)
-        return (sp.diags(1.0 / cell_volume) @ A[rows]).tocsr()
+        rows = (9 * T.dofmap.list.array[:n_cells, None] + np.arange(9)).ravel()
+        inverse_volume = A.createVecLeft()
+        inverse_volume.array[rows] = np.repeat(1.0 / volume[Q.dofmap.list.array[:n_cells]], 9)
+        A.diagonalScale(L=inverse_volume)
+        return A, rows
 
     def _sigma(self, w):
         e = _eps(w)
@@ -277,22 +328,24 @@ class ElasticModel:
         msh = self.msh
         fdim = msh.topology.dim - 1
         msh.topology.create_connectivity(fdim, msh.topology.dim)
-        fixed = np.zeros(self.ndof, bool)
+        fixed = np.zeros(3 * len(self._local_nodes), bool)
         for i, (locator, components) in enumerate(dirichlet):
             facets = locate_entities_boundary(msh, fdim, locator)
-            if facets.size == 0:
+            if self.comm.allreduce(facets.size) == 0:
                 raise ValueError(f"Dirichlet condition {i}: its locator matches no boundary facet")
             for c in components:
                 if c not in (0, 1, 2):
                     raise ValueError(f"Dirichlet condition {i}: component {c!r} not in (0, 1, 2)")
                 fixed[fem.locate_dofs_topological(self.V.sub(c), fdim, facets)] = True
-        return fixed
+        return fixed[:self.ndof]
 
 
-def _csr(values, rows, cols, shape):
-    """csr matrix from lists of equally shaped arrays of entries and their indices."""
-    flat = lambda arrays: np.concatenate([a.ravel() for a in arrays])
-    return sp.csr_matrix((flat(values), (flat(rows), flat(cols))), shape=shape)
+def _check_located(found, points):
+    outside = np.flatnonzero(~found)
+    if outside.size:
+        j = outside[0]
+        raise ValueError(f"point {j} at {points[j].tolist()} is in no FE cell "
+                         f"({outside.size} of {len(points)} points are outside the mesh)")
 
 
 def _eps(w):
