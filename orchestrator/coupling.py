@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from orchestrator.multipliers import DiagonalSolver, FullSolver, multiplier_matrix
+from orchestrator.multipliers import DiagonalSolver, FullSolver
 
 VARIANTS = ("full", "diagonal")
 
@@ -79,8 +79,8 @@ class Coupling:
             self.solver = FullSolver(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt, backend)
         else:
             blocks = [(0, 3 * n), (3 * n, 6 * n)] if rotations else [(0, 3 * n)]
-            S = multiplier_matrix(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt)
-            self.solver = DiagonalSolver(S, blocks)
+            self.solver = DiagonalSolver(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt,
+                                         blocks)
 
     def correct(self, d, w, u):
         """Corrections for predicted sphere displacements d (n,3), rotations w (n,3) and FE

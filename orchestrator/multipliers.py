@@ -58,21 +58,32 @@ class DiagonalSolver:
     (rotation rows: h has entries of both signs) would over-correct; such rows use the
     absolute row sum instead, a Gershgorin bound that keeps the update stable.
     `guarded_rows` counts them.
+
+    S itself is never formed (S = Δt²(D⁻¹ + G W⁻¹ Gᵀ) couples every pair of spheres sharing
+    an element node: 31 M non-zeros for 4,919 bridging spheres): row sums are two products
+    with G, and the absolute row sums are needed only on guarded rows, built `chunk` rows at
+    a time.
     """
 
     name = "diagonal"
 
-    def __init__(self, S, blocks):
-        S = S.tocsr()
-        lumped = np.empty(S.shape[0])
-        absolute = np.empty(S.shape[0])
+    def __init__(self, G, de_inv_mass, fe_inv_mass, dt, blocks, chunk=2000):
+        G = sp.csr_matrix(G)
+        dt2 = dt * dt
+        diagonal = dt2 * (de_inv_mass + G.multiply(G) @ fe_inv_mass)
+        self.diagonal = np.empty(G.shape[0])
+        self.guarded_rows = 0
         for lo, hi in blocks:
-            block = S[lo:hi, lo:hi]
-            lumped[lo:hi] = np.asarray(block.sum(axis=1)).ravel()
-            absolute[lo:hi] = np.asarray(abs(block).sum(axis=1)).ravel()
-        guard = lumped < S.diagonal()
-        self.guarded_rows = int(guard.sum())
-        self.diagonal = np.where(guard, absolute, lumped)
+            Gb = G[lo:hi]
+            lumped = dt2 * (de_inv_mass[lo:hi] + Gb @ (fe_inv_mass * np.asarray(Gb.sum(axis=0)).ravel()))
+            guarded = np.flatnonzero(lumped < diagonal[lo:hi])
+            self.guarded_rows += len(guarded)
+            GbW = Gb @ sp.diags(fe_inv_mass)
+            for start in range(0, len(guarded), chunk):
+                rows = guarded[start:start + chunk]
+                coupling = abs(GbW[rows] @ Gb.T).tocsr()  # |off-diagonal + diagonal coupling terms|
+                lumped[rows] = dt2 * (de_inv_mass[lo + rows] + np.asarray(coupling.sum(axis=1)).ravel())
+            self.diagonal[lo:hi] = lumped
         self._inverse = 1.0 / self.diagonal
 
     def solve(self, g):
