@@ -1,0 +1,117 @@
+"""`calibrate`: uniaxial compression and tension tests of a CPM packing; fit of the CPM
+micro-parameters to target E, fc (and ν)."""
+NAME = "calibrate"
+HELP = ("uniaxial tests of a CPM packing (E, ν, fc, ft); fit CPM micro-parameters to target "
+        "--young, --fc (--poisson)")
+
+SCALE_RADII = {"small": 0.025, "medium": 0.02, "paper": 0.0118}   # cases/slab.py SCALES
+
+
+def configure(p):
+    p.add_argument("--young", type=float, default=31e9, help="target E (Pa, default 31e9)")
+    p.add_argument("--fc", type=float, default=31e6,
+                   help="target compressive strength (Pa, default 31e6)")
+    p.add_argument("--poisson", type=float, default=None,
+                   help="target ν (default: keep CpmMat.poisson and report ν)")
+    p.add_argument("--density", type=float, default=2400.0, help="bulk density (kg/m³)")
+    size = p.add_mutually_exclusive_group()
+    size.add_argument("--scale", choices=tuple(SCALE_RADII), default="small",
+                      help="the slab's sphere radius of this scale (default small)")
+    size.add_argument("--radius", type=float, help="sphere radius (m)")
+    p.add_argument("--size", type=float, nargs=3, default=(0.56, 0.56, 0.28),
+                   metavar=("LENGTH", "WIDTH", "THICKNESS"),
+                   help="specimen (m), loaded along its length (default 0.56 0.56 0.28: "
+                        "the slab's thickness)")
+    p.add_argument("--measure-only", action="store_true",
+                   help="only measure the given micro-parameters, no fit")
+    p.add_argument("--sigma-t", type=float, default=None, help="initial CpmMat.sigmaT (Pa)")
+    p.add_argument("--cpm-young", type=float, default=None, help="initial CpmMat.young (Pa)")
+    p.add_argument("--eps-crack-onset", type=float, default=None,
+                   help="initial CpmMat.epsCrackOnset")
+    p.add_argument("--cpm-poisson", type=float, default=None, help="initial CpmMat.poisson")
+    p.add_argument("--strain-rate", type=float, default=0.05,
+                   help="compression strain rate (1/s, default 0.05; tension: 1/10 of it)")
+    p.add_argument("--tol", type=float, default=0.02,
+                   help="relative tolerance on E and fc of the fit (default 0.02)")
+    p.add_argument("--max-iter", type=int, default=6, help="fit iterations (default 6)")
+    p.add_argument("--seed", type=int, default=1, help="packing seed")
+    p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
+    p.add_argument("--out", required=True, help="results folder")
+    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+
+
+def run(args):
+    from dataclasses import asdict, replace
+    from orchestrator.results import prepare_out, write_json
+    from yade_side import import_yade
+    import_yade(args.threads)
+    from yade_side import calibration as cal
+    from yade_side.material import ConcreteParams
+
+    if not 0 < args.tol < 1:
+        raise ValueError(f"--tol must be in (0, 1), got {args.tol!r}")
+    if args.max_iter < 1:
+        raise ValueError(f"--max-iter must be >= 1, got {args.max_iter!r}")
+    radius = args.radius if args.radius is not None else SCALE_RADII[args.scale]
+    target = cal.Target(young=args.young, compressive_strength=args.fc, poisson=args.poisson,
+                        density=args.density)
+    start = {k: v for k, v in dict(young=args.cpm_young, sigmaT=args.sigma_t,
+                                   epsCrackOnset=args.eps_crack_onset,
+                                   poisson=args.cpm_poisson).items() if v is not None}
+    params = replace(ConcreteParams(), density=args.density, **start)
+    loading = cal.Loading(strain_rate=args.strain_rate, tension_rate=0.1 * args.strain_rate)
+    out = prepare_out(args.out, args.force)
+    sample = cal.packed_sample(radius, args.size, seed=args.seed)
+    print(f"specimen {args.size[0]} × {args.size[1]} × {args.size[2]} m, R = {radius} m: "
+          f"{len(sample.radii)} spheres, packing fraction {sample.fraction:.3f}")
+    if args.measure_only:
+        c = cal.uniaxial_test(sample, params, "compression", loading)
+        t = cal.uniaxial_test(sample, params, "tension", loading)
+        result = dict(params=asdict(params), compression=c, tension=t, iterations=[])
+    else:
+        result = cal.calibrate(sample, target, params, loading, tol=args.tol,
+                               max_iter=args.max_iter)
+    c, t = result["compression"], result["tension"]
+    macro = cal.summary(c, t)
+    curves = {m: {k: r[k] for k in ("strain", "stress", "strain_mid", "lateral_mid")}
+              for m, r in (("compression", c), ("tension", t))}
+    runs = {m: {k: r[k] for k in ("steps", "dt", "seconds")} for m, r in (("compression", c),
+                                                                         ("tension", t))}
+    write_json(out / "calibration.json", dict(
+        radius=radius, size=list(args.size), spheres=len(sample.radii),
+        packing_fraction=sample.fraction, target=asdict(target), loading=asdict(loading),
+        params=result["params"], measured=macro, iterations=result["iterations"], runs=runs,
+        curves=curves))
+    plot_curves(out / "stress_strain.png", c, t, macro, radius)
+    p = result["params"]
+    print(f"CpmMat: young={p['young']:.4g} poisson={p['poisson']:.4g} sigmaT={p['sigmaT']:.4g} "
+          f"epsCrackOnset={p['epsCrackOnset']:.4g} relDuctility={p['relDuctility']:.4g} "
+          f"frictionAngle={p['frictionAngle']:.4g} density={p['density']:.4g} (bulk)")
+    print(f"measured: E={macro['E'] / 1e9:.2f} GPa nu={macro['nu']:.3f} "
+          f"fc={macro['fc'] / 1e6:.2f} MPa ft={macro['ft'] / 1e6:.2f} MPa "
+          f"({len(result['iterations'])} fit iterations); results in {out}")
+    return 0
+
+
+def plot_curves(path, compression, tension, macro, radius):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from orchestrator.results import write_atomic
+    import io
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for run, colour in ((compression, "C0"), (tension, "C3")):
+        ax.plot(-1e3 * run["strain"], -1e-6 * run["stress"], colour, label=f"{run['mode']} (ends)")
+        ax.plot(-1e3 * run["strain_mid"], -1e-6 * run["stress"], colour, ls="--",
+                label=f"{run['mode']} (middle third)")
+    ax.axhline(0, color="k", lw=0.5)
+    ax.axvline(0, color="k", lw=0.5)
+    ax.set_xlabel("axial shortening strain (‰)")
+    ax.set_ylabel("compressive stress (MPa)")
+    ax.set_title(f"R = {radius} m: E = {macro['E'] / 1e9:.1f} GPa, ν = {macro['nu']:.2f}, "
+                 f"fc = {macro['fc'] / 1e6:.1f} MPa, ft = {macro['ft'] / 1e6:.2f} MPa", fontsize=9)
+    ax.legend(fontsize=8)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    write_atomic(path, buf.getvalue(), mode="wb")

@@ -1,0 +1,234 @@
+"""Uniaxial compression and tension tests of a CPM packing, and the fit of the CPM
+micro-parameters to a target E, ν and fc.
+
+The test (after YADE's examples/concrete/uniax.py): the spheres within 1.2 R of both ends of a
+box-shaped packing are driven along x at opposite constant speeds by a UniaxialStrainer (ends
+free laterally), the others start with the matching linear velocity field. Quasi-static loading
+uses Cundall's non-viscous damping (NewtonIntegrator.damping, forces only); the strain rate is low
+enough that E and fc no longer depend on it (docs/calibration.md).
+- stress = (force on the + end + force on the − end) / 2 / nominal section of the box;
+- axial strain between the loaded ends = change of the distance between the mean centres of the
+  two end groups over its initial value (the end spheres move rigidly along x);
+- ν from the sphere displacements of the middle third of the specimen: least-squares slopes of
+  u_y(y), u_z(z) and u_x(x) give the lateral and axial strains there;
+- E from the middle third's axial strain (an extensometer) and ν, by least-squares lines over
+  the initial part, |σ| from 10 % to 40 % of the peak (E_ends: with the strain between the ends);
+- fc, ft are the peak stresses.
+
+The fit rests on the CPM law being positively homogeneous (checked in tests/test_calibration.py):
+- young and sigmaT × μ (epsCrackOnset fixed: link tensile strength E_c ε0 × μ): every stress × μ
+  at the same strains, so E, fc, ft × μ and ν unchanged;
+- sigmaT and epsCrackOnset × λ (young fixed): the link law becomes σ'(λε) = λσ(ε) (damage
+  ω(κ) = 1 − (ε0/κ) exp(−(κ − ε0)/εf) with εf = relDuctility·ε0 is a function of κ/ε0), so fc and
+  ft × λ with E unchanged.
+Both are exact only quasi-statically and away from CPM's fixed strains, hence a few iterations.
+"""
+import math
+import time
+from dataclasses import asdict, dataclass, replace
+
+import numpy as np
+
+from yade_side import import_yade
+from yade_side.bulk import BodySet
+from yade_side.material import ConcreteParams, cpm_material
+from yade_side.packing import add_spheres, dense_box_packing, packing_fraction, sphere_arrays
+from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
+
+END_DEPTH = 1.2          # end groups: centres within this × R of the extreme centres
+ELASTIC_WINDOW = (0.1, 0.4)   # fractions of the peak |σ| over which E and ν are fitted
+
+
+@dataclass
+class Loading:
+    strain_rate: float = 0.05     # 1/s, compression: quasi-static for a 0.56 m long specimen
+    tension_rate: float = 0.005   # 1/s: ft/E is ~10 × smaller than fc/E, so is the rate
+    damping: float = 0.4          # NewtonIntegrator's non-viscous damping (uniax.py's)
+    dt_safety: float = 0.8
+    stop_ratio: float = 0.7       # stop once |σ| falls below this × the peak after it
+    max_strain: float = 5e-3      # or once |ε| exceeds this
+    sample_strain: float = 1e-5   # compression strain between samples (same steps in tension)
+
+    def __post_init__(self):
+        for name in ("strain_rate", "tension_rate", "dt_safety", "max_strain", "sample_strain"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"loading {name} must be > 0, got {getattr(self, name)!r}")
+        if not 0 <= self.damping < 1:
+            raise ValueError(f"loading damping must be in [0, 1), got {self.damping!r}")
+        if not 0 < self.stop_ratio < 1:
+            raise ValueError(f"loading stop_ratio must be in (0, 1), got {self.stop_ratio!r}")
+
+
+@dataclass
+class Sample:
+    """Spheres (centres, radii) filling the box [0, size]; loaded along x."""
+    centres: np.ndarray
+    radii: np.ndarray
+    size: tuple
+
+    @property
+    def section(self):
+        return self.size[1] * self.size[2]
+
+    @property
+    def fraction(self):
+        return packing_fraction(self.radii, float(np.prod(self.size)))
+
+
+def packed_sample(radius, size, seed=1):
+    """A piece of slab: spheres of `radius` whose centres lie in [0, size], cut from a random
+    dense packing (memoized) that is clipped at z = 0 and z = size[2] only, as the slab's packing
+    is at its faces. Cut by centres on the four other sides, as the slab's DE zone is cut out of
+    the slab's packing, so the nominal section holds the slab's amount of material."""
+    size = tuple(float(s) for s in size)
+    if len(size) != 3 or not all(s > 0 for s in size):
+        raise ValueError(f"specimen size must be 3 positive lengths, got {size!r}")
+    if not radius > 0:
+        raise ValueError(f"sphere radius must be > 0, got {radius!r}")
+    if min(size) < 8 * radius:
+        raise ValueError(f"specimen {size} is less than 4 sphere diameters ({2 * radius!r} m) "
+                         f"across on some axis")
+    margin = 3 * radius
+    lo, hi = (-margin, -margin, 0.0), (size[0] + margin, size[1] + margin, size[2])
+    centres, radii = sphere_arrays(dense_box_packing(lo, hi, radius, seed=seed))
+    keep = np.all((centres[:, :2] >= 0) & (centres[:, :2] < size[:2]), axis=1)
+    return Sample(centres[keep], radii[keep], size)
+
+
+def uniaxial_test(sample, params, mode, loading=Loading(), material=None):
+    """One quasi-static uniaxial test, 'compression' or 'tension'. `material` (a CpmMat) replaces
+    the one made from `params` (tests). Returns a dict of arrays (strain, stress, strain_mid,
+    lateral_mid) and the measured E, ν, peak (signed), steps, spheres, time."""
+    if mode not in ("compression", "tension"):
+        raise ValueError(f"mode must be 'compression' or 'tension', got {mode!r}")
+    yade = import_yade()
+    O = yade.Omega()
+    reset_scene()
+    if material is None:
+        mat = cpm_material(params, sample.fraction)
+    else:
+        mat = O.materials.append(material)
+    ids = add_spheres(sample.centres, sample.radii, mat)
+    x = sample.centres[:, 0]
+    R = float(sample.radii.max())
+    neg = np.flatnonzero(x < x.min() + END_DEPTH * R)
+    pos = np.flatnonzero(x > x.max() - END_DEPTH * R)
+    gauge = x[pos].mean() - x[neg].mean()
+    pair = x[pos[0]] - x[neg[0]]     # the strainer's own reference length
+    sign, rate = (-1.0, loading.strain_rate) if mode == "compression" else (1.0, loading.tension_rate)
+    law, newton = cpm_engines(dt_safety=loading.dt_safety)
+    newton.damping = loading.damping
+    strainer = yade.wrapper.UniaxialStrainer(
+        axis=0, asymmetry=0, posIds=ids[pos].tolist(), negIds=ids[neg].tolist(),
+        crossSectionArea=sample.section, strainRate=sign * rate * gauge / pair,
+        blockDisplacements=False, blockRotations=False, setSpeeds=True, stressUpdateInterval=1)
+    # forces and positions of the same step: between the interaction loop and the integrator
+    O.engines = O.engines[:-1] + [strainer, O.engines[-1]]
+    create_cohesive_links()
+    every = max(1, round(loading.sample_strain / (loading.strain_rate * O.dt)))
+
+    lo, hi = np.quantile(x, [1 / 3, 2 / 3])
+    middle = BodySet(ids[(x > lo) & (x < hi)])
+    xm = middle.ref_pos - middle.ref_pos.mean(axis=0)
+    design = [np.column_stack([xm[:, k], np.ones(len(xm))]) for k in range(3)]
+    pinv = [np.linalg.pinv(a)[0] for a in design]   # slope of u_k against coordinate k
+
+    strain, stress, strain_mid, lateral_mid = [], [], [], []
+    peak, t0 = 0.0, time.perf_counter()
+    while True:
+        O.run(every, True)
+        strain.append(strainer.strain * pair / gauge)
+        stress.append(strainer.avgStress)
+        u = middle.read()[:, :3] - middle.ref_pos
+        slopes = [pinv[k] @ u[:, k] for k in range(3)]
+        strain_mid.append(slopes[0])
+        lateral_mid.append(0.5 * (slopes[1] + slopes[2]))
+        s = sign * stress[-1]
+        if not math.isfinite(s):
+            raise FloatingPointError(f"{mode} test: stress is {stress[-1]} at step {O.iter}")
+        peak = max(peak, s)
+        if (peak > 0 and s < loading.stop_ratio * peak) or abs(strain[-1]) > loading.max_strain:
+            break
+    run = {k: np.array(v) for k, v in dict(strain=strain, stress=stress, strain_mid=strain_mid,
+                                           lateral_mid=lateral_mid).items()}
+    run.update(elastic_constants(run), peak=sign * peak, mode=mode, steps=O.iter, dt=O.dt,
+               spheres=len(ids), seconds=time.perf_counter() - t0)
+    return run
+
+
+def elastic_constants(run, window=ELASTIC_WINDOW):
+    """Least-squares slopes over |σ| in window × peak |σ| (before the peak): E = dσ/dε with the
+    middle third's axial strain (an extensometer, free of the end zones), E_ends with the strain
+    between the loaded ends, ν = − dε_lateral/dε_axial in the middle third."""
+    s = np.abs(run["stress"])
+    before = np.arange(len(s)) <= np.argmax(s)
+    sel = before & (s >= window[0] * s.max()) & (s <= window[1] * s.max())
+    if sel.sum() < 3:
+        raise ValueError(f"only {sel.sum()} samples in the elastic window: lower the strain rate "
+                         f"or sample_strain")
+    slope = lambda x, y: float(np.polyfit(x[sel], y[sel], 1)[0])
+    return dict(E=slope(run["strain_mid"], run["stress"]),
+                E_ends=slope(run["strain"], run["stress"]),
+                nu=-slope(run["strain_mid"], run["lateral_mid"]))
+
+
+@dataclass
+class Target:
+    young: float = 31e9
+    compressive_strength: float = 31e6
+    poisson: float = None          # None: keep CpmMat.poisson, only report ν
+    density: float = 2400.0
+
+    def __post_init__(self):
+        for name in ("young", "compressive_strength", "density"):
+            v = getattr(self, name)
+            if not (v > 0 and math.isfinite(v)):
+                raise ValueError(f"target {name} must be a positive number, got {v!r}")
+        if self.poisson is not None and not 0 < self.poisson < 0.25:
+            raise ValueError(f"target poisson must be in (0, 0.25) (a CPM sphere packing has "
+                             f"ν < 1/4), got {self.poisson!r}")
+
+
+def _link_ratio(nu):
+    """Shear/normal link stiffness ratio giving ν in a random isotropic packing, estimate
+    ν = (1 − α)/(4 + α) (Liao et al. 1997): only used as the direction of the ν correction."""
+    return (1 - 4 * nu) / (1 + nu)
+
+
+def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0.01,
+              max_iter=6, log=print):
+    """Fit young, sigmaT, epsCrackOnset (and poisson if targeted) so that the compression test
+    gives target E, fc (ν) within tol (nu_tol), then measure ft by a tension test.
+    Returns dict(params, compression, tension, iterations=[...])."""
+    params = replace(params or ConcreteParams(), density=target.density)
+    iterations = []
+    for it in range(1, max_iter + 1):
+        c = uniaxial_test(sample, params, "compression", loading)
+        fc = -c["peak"]
+        iterations.append(dict(params=asdict(params), E=c["E"], nu=c["nu"], fc=fc,
+                               seconds=c["seconds"]))
+        log(f"iteration {it}: young={params.young:.4g} sigmaT={params.sigmaT:.4g} "
+            f"epsCrackOnset={params.epsCrackOnset:.4g} poisson={params.poisson:.3g} -> "
+            f"E={c['E'] / 1e9:.2f} GPa nu={c['nu']:.3f} fc={fc / 1e6:.2f} MPa "
+            f"({c['seconds']:.1f} s)")
+        mu = target.young / c["E"]
+        lam = target.compressive_strength / (mu * fc)
+        nu_ok = target.poisson is None or abs(c["nu"] - target.poisson) <= nu_tol
+        if abs(mu - 1) <= tol and abs(mu * lam - 1) <= tol and nu_ok:
+            break
+        if it == max_iter:
+            log(f"not converged after {max_iter} iterations")
+            break
+        if not nu_ok:
+            ratio = _link_ratio(target.poisson) / max(_link_ratio(c["nu"]), 1e-3)
+            params = replace(params, poisson=params.poisson * float(np.clip(ratio, 0.25, 4.0)))
+        params = replace(params, young=params.young * mu, sigmaT=params.sigmaT * mu * lam,
+                         epsCrackOnset=params.epsCrackOnset * lam)
+    t = uniaxial_test(sample, params, "tension", loading)
+    return dict(params=asdict(params), compression=c, tension=t, iterations=iterations)
+
+
+def summary(compression, tension):
+    """The macroscopic values of a compression and a tension test."""
+    return dict(E=compression["E"], nu=compression["nu"], fc=-compression["peak"],
+                ft=tension["peak"], E_tension=tension["E"], E_ends=compression["E_ends"])
