@@ -1,0 +1,1 @@
+"""Benchmarks of the slab models against the performance goals (issue 6): `python -m bench`."""

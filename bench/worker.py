@@ -1,0 +1,158 @@
+"""Measures one slab model in its own process (peak memory and OMP_NUM_THREADS are per process).
+
+Run by bench.run as `python -m bench.worker '<json task>'`; prints one JSON line. Task keys:
+scale, model ("full" | "coupled"), warmup, steps, threads, and for the coupled model
+`variants` (coupling variants to time, e.g. ["diagonal", "full"]) and `output` (time the
+run loop's output work).
+"""
+import json
+import os
+import resource
+import sys
+import tempfile
+from time import perf_counter
+
+import numpy as np
+
+
+def timed_steps(m, warmup, steps):
+    """Per-step wall time and time split (seconds) of `steps` steps after `warmup`."""
+    for _ in range(warmup):
+        m.step()
+    keys = list(m.seconds)
+    wall, split = np.empty(steps), np.empty((steps, len(keys)))
+    for n in range(steps):
+        before = [m.seconds[k] for k in keys]
+        t0 = perf_counter()
+        m.step()
+        wall[n] = perf_counter() - t0
+        split[n] = [m.seconds[k] - b for k, b in zip(keys, before)]
+    return {"median_s": float(np.median(wall)), "mean_s": float(wall.mean()),
+            "min_s": float(wall.min()), "steps": steps, "warmup": warmup,
+            "split_median_s": {k: float(np.median(split[:, i])) for i, k in enumerate(keys)},
+            "split_mean_s": {k: float(split[:, i].mean()) for i, k in enumerate(keys)}}
+
+
+def median_time(f, repeat):
+    t = []
+    for _ in range(repeat):
+        t0 = perf_counter()
+        f()
+        t.append(perf_counter() - t0)
+    return float(np.median(t))
+
+
+def output_cost(m, repeat=3):
+    """Output work of the run loop amortised per step: sensors every sample_every steps,
+    energy check every check_every, a damage map and ParaView frame every output_every."""
+    from yade_side.output import SphereSeries
+    spec = m.spec
+    sensors = median_time(m.sensor_displacements, repeat)
+    energy = median_time(m.energy, repeat)
+    with tempfile.TemporaryDirectory() as tmp:
+        series = SphereSeries(os.path.join(tmp, "spheres.pvd"))
+        fe_series = None
+        if m.fe is not None:
+            from fenicsx_side.output import XdmfSeries
+            fe_series = XdmfSeries(os.path.join(tmp, "fe.xdmf"), m.fe)
+
+        def frame():
+            dmg = m.damage.update()
+            m.slab.read()
+            series.write(0.0, m.slab.pos, m.radius, displacement=m.slab.displacement(),
+                         velocity=m.slab.vel, rotation_speed=m.slab.angvel, damage=dmg)
+            if fe_series is not None:
+                fe_series.write(0.0)
+
+        frame_s = median_time(frame, repeat)
+        if fe_series is not None:
+            fe_series.close()
+    per_step = sensors / spec.sample_every + energy / spec.check_every + frame_s / spec.output_every
+    return {"per_step_s": per_step, "sensors_s": sensors, "energy_s": energy, "frame_s": frame_s,
+            "every": [spec.sample_every, spec.check_every, spec.output_every]}
+
+
+def coupling_parts(m, repeat=20):
+    """Median cost of the pieces of the coupling step, from the state of the last step
+    (restored afterwards)."""
+    st = m.stepper
+    b, c = st.bridge, st.last
+    dt = st.dt
+    state, rotation = b.read().copy(), b.rotation.copy()
+    d, w = b.displacement(), b.rotation_pred.copy()
+    parts = {
+        "read_s": median_time(b.read, repeat),
+        "multipliers_s": median_time(lambda: st.coupling.correct(d, w, st.fe.u), repeat),
+        "correct_and_write_spheres_s": median_time(lambda: b.correct(c.dd, c.dw, dt), repeat),
+        "write_s": median_time(b.write, repeat),
+        "correct_fe_s": median_time(lambda: st.fe.correct(c.fe_dofs, 0 * c.du, dt), repeat),
+        "exchange_meter_s": median_time(lambda: st.exchange.update(c), repeat),
+        "direct_memory_exchange": b.direct,
+    }
+    from yade_side.bulk import BodySet
+    api = BodySet(b.ids, direct=False)  # YADE's own bulk API, for comparison
+    api.state[:] = state
+    parts["api_read_s"] = median_time(api.read, repeat)
+    parts["api_write_s"] = median_time(api.write, repeat)
+    b.state[:] = state
+    b.write()
+    b.rotation[:] = rotation
+    return parts
+
+
+def run(task):
+    from cases.slab import SlabModel, SlabSpec
+    from yade_side import import_yade
+    import_yade(threads=task.get("threads", 1))
+    spec = SlabSpec(scale=task["scale"])
+    t0 = perf_counter()
+    m = SlabModel(spec, task["model"])
+    result = {"task": task, "build_s": perf_counter() - t0, "n_spheres": m.sphere_count(),
+              "n_bridging_spheres": len(m.bridge_index),
+              "n_fe_nodes": 0 if m.fe is None else len(m.fe.nodes), "dt": m.dt}
+    result["timing"] = timed_steps(m, task["warmup"], task["steps"])
+    if task.get("output"):
+        result["output"] = output_cost(m)
+    if m.stepper is not None:
+        result["variant"] = spec.variant
+        result["coupling_parts"] = coupling_parts(m)
+        result["variants"] = {spec.variant: _variant_summary(m, result["timing"])}
+        for variant in task.get("variants", []):
+            if variant != spec.variant:
+                result["variants"][variant] = _time_variant(m, variant, task)
+    result["peak_rss_bytes"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    return result
+
+
+def _variant_summary(m, timing):
+    return {"coupling_s": timing["split_median_s"]["coupling"],
+            "guarded_rows": getattr(m.stepper.coupling.solver, "guarded_rows", None)}
+
+
+def _time_variant(m, variant, task):
+    """Swap the coupling for another variant and time it; for the full variant also time the
+    set-up (assembly of T and its sparse Cholesky factorisation)."""
+    from orchestrator.assembly import make_coupling
+    from orchestrator.multipliers import FullSolver
+    from orchestrator.timeloop import CoupledStepper
+    spec = m.spec
+    t0 = perf_counter()
+    coupling = make_coupling(m.fe, m.bridging, m.bridge, m.dt, variant, spec.relaxation,
+                             spec.rotations)
+    out = {"coupling_setup_s": perf_counter() - t0}
+    if variant == "full":
+        c = coupling
+        out["factorisation_s"] = median_time(
+            lambda: FullSolver(c.G, c.de_inv_mass, c.fe_inv_mass, c.dt), 3)
+        out["backend"] = c.solver.backend
+        out["system_size"] = int(np.count_nonzero(c.fe_inv_mass))
+    m.stepper = CoupledStepper(m.O.step, m.bridge, m.fe, coupling)
+    m.seconds = {k: 0.0 for k in m.seconds}
+    timing = timed_steps(m, max(2, task["warmup"] // 4), max(10, task["steps"] // 2))
+    out.update(_variant_summary(m, timing))
+    out["step_median_s"] = timing["median_s"]
+    return out
+
+
+if __name__ == "__main__":
+    print(json.dumps(run(json.loads(sys.argv[1]))), flush=True)
