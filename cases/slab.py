@@ -12,6 +12,8 @@ from time import perf_counter
 
 import numpy as np
 
+from orchestrator.runner import damage_map, read_sensors
+
 SLAB = (2.5, 2.0, 0.28)
 # sphere radius per scale; the FE size is a multiple of the diameter (see SlabSpec)
 SCALES = {"small": 0.025, "medium": 0.02, "paper": 0.0118}
@@ -267,157 +269,24 @@ class SlabModel:
 
 def run(spec, model, out, quiet=False):
     """Run one model to spec.steps and write its results folder `out` (already prepared)."""
-    from orchestrator.diagnostics import BlowUpGuard
-    from orchestrator.progress import progress
-    from orchestrator.results import write_json
-    from yade_side.output import SphereSeries
-
+    from orchestrator import runner
     t_build = perf_counter()
     m = SlabModel(spec, model)
     build_s = perf_counter() - t_build
     impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
-    guard = BlowUpGuard(impact_energy, growth=2.0)
-    spheres = SphereSeries(out / "spheres.pvd")
-    fe_series = None
-    if m.fe is not None:
-        from fenicsx_side.output import XdmfSeries
-        fe_series = XdmfSeries(out / "fe.xdmf", m.fe)
-    times, history, energy = [0.0], [m.sensor_displacements()], []
-    maps_t, maps = [], []
-
-    def output(t):
-        t0 = perf_counter()
-        dmg = m.damage.update()
-        maps_t.append(t)
-        maps.append(dmg)
-        m.slab.read()
-        spheres.write(t, m.slab.pos, m.radius, displacement=m.slab.displacement(),
-                      velocity=m.slab.vel, rotation_speed=m.slab.angvel, damage=dmg)
-        if fe_series is not None:
-            fe_series.write(t)
-        m.seconds["output"] += perf_counter() - t0
-
-    output(0.0)
-    t_run = perf_counter()
-    with progress(spec.steps, f"slab {model} ({spec.scale})", quiet) as bar:
-        for n in range(1, spec.steps + 1):
-            m.step()
-            t = n * m.dt
-            if n % spec.sample_every == 0:
-                times.append(t)
-                history.append(m.sensor_displacements())
-            if n % spec.check_every == 0 or n == spec.steps:
-                e = m.energy()
-                energy.append((t, e))
-                arrays = {"sensor displacements": history[-1]}
-                if m.fe is not None:
-                    arrays["FE displacement"] = m.fe.u
-                guard.check(n, e, **arrays)
-                bar.set_postfix(t=f"{t * 1e3:.3f} ms", E=f"{e:.4g} J", refresh=False)
-            if n % spec.output_every == 0 or n == spec.steps:
-                output(t)
-            bar.update()
-        wall = perf_counter() - t_run
-    if fe_series is not None:
-        fe_series.close()
-
-    history = np.array(history)
-    final = maps[-1]
-    volume = 4.0 / 3.0 * np.pi * m.radius**3
-    warnings = _post_run_checks(m, final)
-    summary = {
-        "model": model, "spec": asdict(spec),
-        "n_spheres": m.sphere_count(), "n_slab_spheres": len(m.slab_ids),
-        "n_fe_nodes": 0 if m.fe is None else len(m.fe.nodes),
-        "n_bridging_spheres": len(m.bridge_index),
-        "steps": spec.steps, "dt": m.dt, "critical_dt": m.critical,
-        "build_s": build_s, "wall_s": wall, "s_per_step": wall / spec.steps,
-        "time_split_s": dict(m.seconds),
-        "sensors": {name: {"position": m.sensor_positions[i].tolist(),
-                           "peak_displacement_z": float(np.abs(history[:, i, 2]).max())}
-                    for i, name in enumerate(m.sensor_names)},
-        "damage": {"initial_links": m.initial_links,
-                   "broken_links": int(np.round(final @ m.damage.initial)),
-                   "damaged_volume_m3": float(final @ volume),
-                   "max_bridging_damage": float(final[m.bridge_index].max(initial=0.0))},
-        "impact_energy_J": impact_energy,
-        "energy": energy,
-        "warnings": warnings,
-    }
-    write_json(out / "summary.json", summary)
-    _write_sensors(out / "sensors.csv", m.sensor_names, np.array(times), history)
-    np.savez(out / "damage.npz", times=np.array(maps_t), damage=np.array(maps),
-             slab_index=m.slab_index, positions=m.slab.ref_pos, radius=m.radius,
-             in_de_zone=m.in_de_zone)
-    plot_run(out, summary, np.array(times), history, m.slab.ref_pos, final, m.in_de_zone)
-    for w in warnings:
-        print(f"WARNING: {w}")
-    return summary
+    info = {"model": model, "spec": asdict(spec), "n_slab_spheres": len(m.slab_ids),
+            "build_s": build_s, "impact_energy_J": impact_energy}
+    schedule = runner.Schedule(spec.steps, spec.sample_every, spec.check_every, spec.output_every)
+    return runner.run(m, m.slab, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
+                      info=info, arrays={"slab_index": m.slab_index},
+                      checks=lambda damage: _post_run_checks(m, damage), quiet=quiet)
 
 
 def _post_run_checks(m, damage):
     """The paper's two checks: the FE stays elastic; the bridging spheres stay undamaged."""
-    warnings = []
-    spec = m.spec
-    if m.fe is not None:
-        s = m.fe.stress()
-        if s.max_principal.max() > spec.tensile_strength:
-            warnings.append(f"FE principal stress {s.max_principal.max() / 1e6:.2f} MPa exceeds "
-                            f"the tensile strength {spec.tensile_strength / 1e6:.2f} MPa: the DE "
-                            f"zone may be too small")
-        if s.von_mises.max() > spec.compressive_strength:
-            warnings.append(f"FE von Mises stress {s.von_mises.max() / 1e6:.2f} MPa exceeds the "
-                            f"compressive strength {spec.compressive_strength / 1e6:.1f} MPa")
-    bridged = damage[m.bridge_index]
-    if bridged.size and bridged.max() > 0:
-        warnings.append(f"{np.count_nonzero(bridged)} bridging spheres are damaged (max "
-                        f"{bridged.max():.2f}): the DE zone may be too small")
-    return warnings
-
-
-def _write_sensors(path, names, times, history):
-    from orchestrator.results import write_atomic
-    header = ["t"] + [f"{n}_{c}" for n in names for c in "xyz"]
-    rows = np.column_stack([times, history.reshape(len(times), -1)])
-    lines = [",".join(header)] + [",".join(f"{v:.9e}" for v in row) for row in rows]
-    write_atomic(path, "\n".join(lines) + "\n")
-
-
-def read_sensors(path):
-    """(times, names, history (n_times, n_sensors, 3)) of a sensors.csv."""
-    with open(path) as f:
-        header = f.readline().strip().split(",")
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    return data[:, 0], [h[:-2] for h in header[1::3]], data[:, 1:].reshape(len(data), -1, 3)
-
-
-def plot_run(out, summary, times, history, positions, damage, in_de_zone):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(7, 4))
-    for i, name in enumerate(summary["sensors"]):
-        ax.plot(times * 1e3, history[:, i, 2] * 1e3, label=name)
-    ax.set(xlabel="time (ms)", ylabel="z displacement (mm)",
-           title=f"slab, {summary['model']} model: sensor histories")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(out / "sensors.png", dpi=120)
-    plt.close(fig)
-    fig, ax = plt.subplots(figsize=(6, 5))
-    damage_map(ax, positions, damage, f"{summary['model']}: damage (broken / initial links)")
-    fig.tight_layout()
-    fig.savefig(out / "damage.png", dpi=120)
-    plt.close(fig)
-
-
-def damage_map(ax, positions, damage, title):
-    """Plan view of the damage per sphere, the most damaged of a column on top."""
-    order = np.argsort(damage)
-    sc = ax.scatter(positions[order, 0], positions[order, 1], c=damage[order], s=6,
-                    cmap="inferno_r", vmin=0, vmax=1)
-    ax.set(xlabel="x (m)", ylabel="y (m)", title=title, aspect="equal")
-    ax.figure.colorbar(sc, ax=ax, shrink=0.8)
+    from orchestrator.runner import post_run_checks
+    return post_run_checks(m.fe, damage[m.bridge_index], m.spec.tensile_strength,
+                           m.spec.compressive_strength)
 
 
 def compare(full_dir, coupled_dir, out):

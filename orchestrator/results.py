@@ -10,13 +10,21 @@ class ResultsExist(RuntimeError):
     pass
 
 
-def prepare_out(path, force=False):
-    """Create the run folder `path`; refuse an existing non-empty one unless `force`."""
+def check_out(path, force=False):
+    """Refuse an existing non-empty run folder unless `force`; True when it would be replaced."""
     out = Path(path)
     if out.exists() and any(out.iterdir()):
         if not force:
             raise ResultsExist(f"results folder {out} exists and is not empty; "
                                f"choose another --out or pass --force to replace it")
+        return True
+    return False
+
+
+def prepare_out(path, force=False):
+    """Create the run folder `path`; refuse an existing non-empty one unless `force`."""
+    out = Path(path)
+    if check_out(out, force):
         shutil.rmtree(out)
     out.mkdir(parents=True, exist_ok=True)
     return out

@@ -27,9 +27,15 @@ class CoupledStepper:
         self.last = None
 
     def step(self):
-        dt = self.dt
         t0 = perf_counter()
         self.de_step()
+        self.seconds["yade"] += perf_counter() - t0
+        return self.couple()
+
+    def couple(self):
+        """What follows the DE predictor: FE predictor, multipliers, corrections. Called by
+        step(), or by a DE engine placed right after the integrator (yade_side.user_script)."""
+        dt = self.dt
         t1 = perf_counter()
         self.fe.predict(dt)
         t2 = perf_counter()
@@ -39,7 +45,6 @@ class CoupledStepper:
         self.fe.correct(c.fe_dofs, c.du, dt)
         self.exchange.update(c)
         t3 = perf_counter()
-        self.seconds["yade"] += t1 - t0
         self.seconds["fe"] += t2 - t1
         self.seconds["coupling"] += t3 - t2
         self.steps += 1

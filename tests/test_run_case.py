@@ -1,0 +1,99 @@
+"""`python3 -m orchestrator run CASE.toml` on the shipped user-script case: the results folder
+reads back, the coupling step inserted in YADE's engine list is exact, and the checks that
+need both models stop a bad case before its first step."""
+import json
+import re
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+from orchestrator.case import CaseModel
+from orchestrator.casefile import load
+from orchestrator.cli import main
+from yade_side.output import read_series
+
+ROOT = Path(__file__).resolve().parents[1]
+BLOCK = ROOT / "cases" / "block_impact.toml"
+EPS = np.finfo(float).eps
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("block") / "run"
+    assert main(["run", str(BLOCK), "--set", "time.duration=1.2e-4", "--set", "output.every=25",
+                 "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+def test_the_results_folder_holds_everything_and_reads_back(run_dir):
+    for name in ("case.toml", "summary.json", "run.log", "sensors.csv", "damage.npz",
+                 "spheres.pvd", "fe.xdmf", "fe.h5", "sensors.png", "damage.png"):
+        assert (run_dir / name).stat().st_size > 0, name
+    s = json.loads((run_dir / "summary.json").read_text())
+    assert s["steps"] == int(np.ceil(1.2e-4 / s["dt"]))
+    assert s["dt"] <= min(s["critical_dt"].values())
+    assert set(s["sensors"]) == {"under_impact", "bridging", "fe_plate"}
+    assert any("damping was 0.2" in n for n in s["notes"])
+    assert s["relaxation"] > 1 and s["n_bridging_spheres"] > 0
+    frames = read_series(run_dir / "spheres.pvd")
+    assert [t for t, _ in frames][0] == 0.0 and len(frames) == 1 + int(np.ceil(s["steps"] / 25))
+    last = frames[-1][1]
+    assert len(last.points) == s["n_spheres"]
+    assert last.point_data["displacement"].shape == (s["n_spheres"], 3)
+    assert np.all((last.point_data["damage"] >= 0) & (last.point_data["damage"] <= 1))
+    # the spheres moved: the displacement field is the change of the written centres
+    assert np.allclose(last.points - frames[0][1].points, last.point_data["displacement"],
+                       rtol=0, atol=1e-12)
+    with meshio.xdmf.TimeSeriesReader(run_dir / "fe.xdmf") as reader:
+        points, _ = reader.read_points_cells()
+        steps = [reader.read_data(k) for k in range(reader.num_steps)]
+    assert len(steps) == len(frames)
+    assert steps[-1][1]["displacement"].shape == (len(points), 3) == (s["n_fe_nodes"], 3)
+    # the log has the set-up, the checks and the end; the case file copy runs again as is
+    text = (run_dir / "run.log").read_text()
+    assert "note: block_impact.py: NewtonIntegrator damping" in text and "done:" in text
+    again = load(run_dir / "case.toml")
+    assert again["time"]["duration"] == 1.2e-4 and again["de"]["script"] == str(
+        ROOT / "cases" / "scripts" / "block_impact.py")
+
+
+def test_a_run_never_overwrites_an_earlier_one(run_dir, capsys):
+    before = (run_dir / "summary.json").read_text()
+    assert main(["run", str(BLOCK), "--out", str(run_dir), "--quiet"]) == 2
+    assert "--force" in capsys.readouterr().err
+    assert (run_dir / "summary.json").read_text() == before
+
+
+def test_full_lagrange_in_the_engine_list_holds_the_constraints_every_step():
+    """Full multipliers, r = 1: after every O.step() (the coupling runs inside it, right after
+    NewtonIntegrator) the bridging spheres' YADE state satisfies d = k u and ω = h u to
+    round-off, with the bridging spheres set moving."""
+    case = load(BLOCK, ["coupling.variant=full", "coupling.relaxation=1.0"])
+    m = CaseModel(case)
+    rng = np.random.default_rng(3)
+    m.bridge.set_velocity(rng.normal(size=(len(m.bridge), 3)), rng.normal(size=(len(m.bridge), 3)))
+    worst = 0.0
+    for n in range(1, 31):
+        m.step()
+        c = m.stepper.last
+        assert m.stepper.steps == n                      # one coupling per O.step()
+        m.bridge.read()
+        d = m.bridge.displacement().ravel()
+        # d = position − reference: round-off of the positions (~0.6 m), not of d
+        assert np.allclose(d, c.q[:d.size], rtol=0, atol=4 * EPS * np.abs(m.bridge.pos).max())
+        worst = max(worst, np.abs(c.q - c.Gu).max() / np.abs(c.q).max())
+    assert np.abs(m.bridge.displacement()).max() > 1e-6    # they moved, far beyond round-off
+    assert worst < 1e-12
+
+
+def test_problems_needing_both_models_stop_the_case_before_it_runs(tmp_path, capsys):
+    out = tmp_path / "bad"
+    code = main(["run", str(BLOCK), "--set", "time.dt=1e-5", "--set", "fe.hi=[1.2, 1.2, 0.06]",
+                 "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert re.search(r"time\.dt = 1e-05 s: above the DE critical step 4\.\d+e-06 s", err)
+    assert re.search(r"coupling: bridging spheres in no FE element: point \d+ at .* is in no FE "
+                     r"cell \(\d+ of \d+ points are outside the mesh\)", err)

@@ -1,0 +1,171 @@
+"""A user's unmodified YADE script, run in this process for its scene set-up, then made ready
+to be coupled.
+
+`run_script` executes the script as YADE's launcher does (`yade script.py`): with the
+launcher's namespace (`from yade import *`, `yade.utils`, `yade.pack`, `math`), `sys.argv` =
+[script, *args], in a fresh module that becomes `__main__` (YADE runs `PyRunner` commands there).
+While it runs, the calls that would start YADE's own loop or wait for a GUI are neutralised
+(`O.run`, `O.wait`, `waitIfBatch`, `yade.plot.plot`): the caller drives the time loop with
+`O.step()` in its own thread (platform notes: `O.run` steps in a worker thread). `O.step()`
+calls in the script do run (a script may step once to create its cohesive links).
+
+`prepare_dynamics` then refuses what cannot be coupled (periodic cell, no single
+NewtonIntegrator) and fixes what explicit coupled dynamics needs, with a warning each: no
+numerical damping, fixed time step. `insert_after_newton` puts a Python step right after
+NewtonIntegrator in the engine list: the place where a correction of positions and half-step
+velocities keeps the leap-frog exact (platform notes, way (b)), before any of the script's
+own engines after Newton (recorders, CpmStateUpdater, PyRunners) read the state.
+"""
+import builtins
+import sys
+import types
+import warnings
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from yade_side import import_yade
+
+LAUNCHER_NAMESPACE = ("from yade import *\nfrom yade import utils, pack, geom\n"
+                      "from yade.utils import *\nfrom yade.pack import *\nfrom math import *\n")
+_STEP_NAME = "_orchestrator_step_{}"
+
+
+class ScriptRefused(ValueError):
+    """The script's scene is one the orchestrator cannot couple; the message says why."""
+
+
+@dataclass
+class ScriptScene:
+    path: Path
+    namespace: dict
+    dt_from_script: float = None     # O.dt if the script set it
+    run_requests: list = field(default_factory=list)   # arguments of neutralised O.run calls
+    warnings: list = field(default_factory=list)
+
+
+def run_script(path, args=()):
+    """Reset YADE's scene and run the script's set-up; returns a ScriptScene."""
+    path = Path(path).resolve()
+    if not path.is_file():
+        raise FileNotFoundError(f"YADE script {path} not found")
+    yade = import_yade()
+    O = yade.Omega()
+    O.reset()
+    default_dt = O.dt
+    module = types.ModuleType("__main__")
+    module.__file__ = str(path)
+    module.__builtins__ = builtins     # YADE's labels assign `__builtins__.label = engine`
+    namespace = vars(module)
+    exec(LAUNCHER_NAMESPACE, namespace)
+    scene = ScriptScene(path, namespace)
+    namespace["waitIfBatch"] = lambda: None
+    code = compile(path.read_text(), str(path), "exec")
+    # YADE runs PyRunner commands in __main__: the script's module is __main__ from now on,
+    # as under YADE's launcher (the orchestrator's own __main__ keeps running unaffected)
+    sys.modules["__main__"] = module
+    with _neutralised(yade, scene), _argv([str(path), *args]):
+        exec(code, namespace)
+    if O.dt != default_dt:
+        scene.dt_from_script = O.dt
+    return scene
+
+
+@contextmanager
+def _neutralised(yade, scene):
+    import yade.plot
+    omega = yade.wrapper.Omega
+    saved = (omega.run, omega.wait, yade.plot.plot)
+    omega.run = lambda self, *a, **k: scene.run_requests.append((a, k))
+    omega.wait = lambda self, *a, **k: None
+    yade.plot.plot = lambda *a, **k: None
+    try:
+        yield
+    finally:
+        omega.run, omega.wait, yade.plot.plot = saved
+
+
+@contextmanager
+def _argv(argv):
+    saved = sys.argv
+    sys.argv = argv
+    try:
+        yield
+    finally:
+        sys.argv = saved
+
+
+def _warn(scene, message):
+    scene.warnings.append(message)
+    warnings.warn(message, stacklevel=3)
+
+
+def prepare_dynamics(scene):
+    """Refuse a periodic cell or an engine list without exactly one NewtonIntegrator; set
+    Newton's damping to 0 and O.dynDt to False (each with a warning when it was not).
+    Returns the NewtonIntegrator."""
+    yade = import_yade()
+    O = yade.Omega()
+    if O.periodic:
+        raise ScriptRefused(f"{scene.path.name}: the scene has a periodic cell; the bridging "
+                            f"domain needs fixed positions in space, so it cannot be coupled")
+    newtons = [e for e in O.engines if isinstance(e, yade.wrapper.NewtonIntegrator)]
+    if len(newtons) != 1:
+        raise ScriptRefused(f"{scene.path.name}: the engine list has {len(newtons)} "
+                            f"NewtonIntegrator engines; coupling needs exactly one")
+    newton = newtons[0]
+    if newton.damping != 0:
+        _warn(scene, f"{scene.path.name}: NewtonIntegrator damping was {newton.damping:g}; set "
+                     f"to 0 (numerical damping would break the coupled central differences)")
+        newton.damping = 0.0
+    if O.dynDt:
+        _warn(scene, f"{scene.path.name}: O.dynDt was on; turned off (the coupling needs a "
+                     f"fixed time step)")
+        O.dynDt = False
+    if any(newton.gravity):
+        _warn(scene, f"{scene.path.name}: gravity {tuple(newton.gravity)} acts on the spheres "
+                     f"only; the FE model has no body force")
+    return newton
+
+
+def body_table():
+    """Every body: ids, positions (n, 3), radius (NaN if not a sphere), clump (member of a
+    clump or a clump), dynamic. A Python loop over bodies: for set-up only."""
+    yade = import_yade()
+    rows = []
+    for b in yade.Omega().bodies:
+        if b is None:
+            continue
+        is_sphere = isinstance(b.shape, yade.wrapper.Sphere)
+        rows.append((b.id, *b.state.pos, b.shape.radius if is_sphere else np.nan,
+                     b.isClump or b.isClumpMember, b.dynamic))
+    a = np.array(rows, float).reshape(-1, 7)
+    return {"ids": a[:, 0].astype(int), "pos": a[:, 1:4], "radius": a[:, 4],
+            "clump": a[:, 5].astype(bool), "dynamic": a[:, 6].astype(bool)}
+
+
+def insert_after_newton(callback, label="orchestrator"):
+    """Insert a PyRunner calling `callback()` every step right after NewtonIntegrator."""
+    yade = import_yade()
+    import __main__
+    O = yade.Omega()
+    name = _STEP_NAME.format(label)
+    setattr(__main__, name, callback)
+    engines = list(O.engines)
+    i = next(k for k, e in enumerate(engines) if isinstance(e, yade.wrapper.NewtonIntegrator))
+    runner = yade.wrapper.PyRunner(command=f"{name}()", iterPeriod=1, initRun=True, label=label)
+    O.engines = engines[:i + 1] + [runner] + engines[i + 1:]
+    return runner
+
+
+def cpm_law():
+    """The scene's Law2_ScGeom_CpmPhys_Cpm (for its elastic energy), or None."""
+    yade = import_yade()
+    for e in yade.Omega().engines:
+        if isinstance(e, yade.wrapper.InteractionLoop):
+            for law in e.lawDispatcher.functors:
+                if isinstance(law, yade.wrapper.Law2_ScGeom_CpmPhys_Cpm):
+                    return law
+    return None
