@@ -1,5 +1,5 @@
 """Derived figures, goals and the Markdown table of a bench run (from the workers' raw output)."""
-GB = 2**30
+GB = 1e9  # SI gigabyte (stricter than GiB)
 PAPER_STEPS = 100_000
 GOALS = {"coupling_fraction": 0.10, "fe_fraction": 0.05, "speedup_over_ratio": 0.9,
          "full_memory_GB": 3.0, "coupled_memory_GB": 1.0}

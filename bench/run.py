@@ -40,7 +40,7 @@ def worker(task, threads=1):
                            f"{proc.stderr[-3000:]}")
     result = json.loads(proc.stdout.strip().splitlines()[-1])
     print(f"bench: {label}: {1e3 * result['timing']['median_s']:.2f} ms/step, "
-          f"{result['peak_rss_bytes'] / 2**30:.2f} GB, {time.perf_counter() - t0:.0f} s",
+          f"{result['peak_rss_bytes'] / 1e9:.2f} GB, {time.perf_counter() - t0:.0f} s",
           flush=True)
     return result
 

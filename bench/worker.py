@@ -113,6 +113,8 @@ def run(task):
     result["timing"] = timed_steps(m, task["warmup"], task["steps"])
     if task.get("output"):
         result["output"] = output_cost(m)
+    # the run's peak: before the coupling pieces and the other variant are timed
+    result["peak_rss_bytes"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     if m.stepper is not None:
         result["variant"] = spec.variant
         result["coupling_parts"] = coupling_parts(m)
@@ -120,7 +122,7 @@ def run(task):
         for variant in task.get("variants", []):
             if variant != spec.variant:
                 result["variants"][variant] = _time_variant(m, variant, task)
-    result["peak_rss_bytes"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    result["peak_rss_end_bytes"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return result
 
 

@@ -67,7 +67,7 @@ class DiagonalSolver:
 
     name = "diagonal"
 
-    def __init__(self, G, de_inv_mass, fe_inv_mass, dt, blocks, chunk=2000):
+    def __init__(self, G, de_inv_mass, fe_inv_mass, dt, blocks, chunk=500):
         G = sp.csr_matrix(G)
         dt2 = dt * dt
         diagonal = dt2 * (de_inv_mass + G.multiply(G) @ fe_inv_mass)
