@@ -73,6 +73,17 @@ def test_direct_and_api_paths_agree_bit_for_bit():
     assert np.array_equal(direct.read().view(np.int64), api.state.view(np.int64))
 
 
+def test_memory_view_is_refused_when_yade_api_does_not_confirm_it():
+    """The direct view is only used when the API's values are found in memory: a `put`
+    that writes nothing (so the probe values never appear) gives no view."""
+    from yade_side.state_memory import locate
+    ids = cluster(n=3)
+    subdomain = yade.wrapper.Subdomain()
+    assert locate(O.bodies, ids, subdomain.getStateValuesFromIds,
+                  subdomain.setStateValuesFromIds) is not None
+    assert locate(O.bodies, ids, subdomain.getStateValuesFromIds, lambda i, v: None) is None
+
+
 @pytest.mark.parametrize("direct", [True, False])
 def test_correction_is_an_exact_central_difference_update(direct):
     """YADE's step + correct(dd) equals the central difference with the correction's force
