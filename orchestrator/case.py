@@ -21,14 +21,15 @@ import numpy as np
 from orchestrator.casefile import AXIS, CaseError
 
 
-def auto_relaxation(ratio, layers):
-    """r for relaxation = "auto": cases.wave1d's rule when present, else the paper's advice
-    r ≈ 10 × the discretisation ratio (FE element size / sphere diameter)."""
+def auto_relaxation(ratio, layers, variant, dt_safety):
+    """r for relaxation = "auto": the rule fitted on the 1D study (cases.wave1d) from the
+    discretisation ratio (FE element size / sphere diameter), n_b, the solver and Δt / the
+    critical step; without that module, the paper's advice r ≈ 10 × the ratio."""
     try:
         from cases.wave1d import auto_relaxation as rule
     except ImportError:
         return 10.0 * ratio
-    return float(rule(ratio, layers))
+    return float(rule(ratio, layers, variant, dt_safety))
 
 
 class CaseModel:
@@ -77,9 +78,12 @@ class CaseModel:
         self.bridge = BodySet(ids[self.bridge_index])
         if cp["relaxation"] == "auto":
             ratio = cp["element_size"] / (2 * self.bridge.radius.mean())
-            self.relaxation = auto_relaxation(ratio, cp["layers"])
+            safety = self.dt / min(self.critical.values())
+            self.relaxation = auto_relaxation(ratio, cp["layers"], cp["variant"], safety)
             self.notes.append(f"relaxation auto: r = {self.relaxation:.4g} for a discretisation "
-                              f"ratio {ratio:.3g} (element size / mean sphere diameter)")
+                              f"ratio {ratio:.3g} (element size / mean sphere diameter), "
+                              f"{cp['layers']} layers, {cp['variant']} solver, dt = "
+                              f"{safety:.3g} × the critical step")
         else:
             self.relaxation = cp["relaxation"]
         coupling = make_coupling(self.fe, self.bridging, self.bridge, self.dt, cp["variant"],
@@ -287,7 +291,7 @@ def run_case(case, out, force=False, quiet=False, threads=None):
         _write_case(case, out)
         return slab.run(spec, case["slab"]["model"], out, quiet=quiet)
     if case.kind == "wave1d":
-        raise ValueError(f"case file {case.path}: kind 'wave1d' has no runner yet")
+        return _run_wave1d(case, out, force)
     model = CaseModel(case)            # raises CaseError before anything runs
     build_s = perf_counter() - t0
     out = prepare_out(out, force)
@@ -306,6 +310,19 @@ def run_case(case, out, force=False, quiet=False, threads=None):
     return runner.run(model, model.spheres, schedule, out, d["case"]["name"],
                       model.reference_energy, info=info, checks=checks, quiet=quiet,
                       notes=model.notes)
+
+
+def _run_wave1d(case, out, force):
+    """The wave1d command on the case file's keys (it writes its own results folder)."""
+    from argparse import Namespace
+    from orchestrator.commands import wave1d
+    cp = case["coupling"]
+    args = Namespace(variant=cp["variant"], relaxation=cp["relaxation"], layers=cp["layers"],
+                     ratio=case["wave1d"]["ratio"], out=out, force=force)
+    wave1d.run(args)
+    _write_case(case, out)
+    import json
+    return json.loads((out / "summary.json").read_text())
 
 
 def _write_case(case, out):
@@ -328,7 +345,7 @@ def slab_spec(case):
     spec = slab.SlabSpec(**fields)
     if relaxation == "auto":
         ratio = slab.slab_grid(spec).h / (2 * spec.radius)
-        spec.relaxation = auto_relaxation(ratio, spec.layers)
+        spec.relaxation = auto_relaxation(ratio, spec.layers, spec.variant, spec.dt_safety)
     elif relaxation is not None:
         spec.relaxation = relaxation
     return spec

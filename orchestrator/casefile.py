@@ -9,8 +9,8 @@ bridging spheres outside every FE element, a time step above a critical step) ar
 `orchestrator.case` before the first step. Every key is documented in docs/case-files.md.
 
 Three kinds of case: `generic` (packing or user YADE script, box or gmsh mesh: see
-orchestrator.case), and `slab` / `wave1d`, whose keys map onto the ready-made cases'
-specifications (cases.slab.SlabSpec, cases.wave1d.Wave1DSpec).
+orchestrator.case), `slab`, whose keys map onto cases.slab.SlabSpec, and `wave1d`, whose keys
+are the `wave1d` command's options.
 """
 import math
 import tomllib
@@ -179,15 +179,13 @@ SLAB = {
              "steps": Key(_integer, UNSET, at_least_one)},
     "output": _unset(OUTPUT),
 }
+# wave1d: the keys of the `wave1d` command (orchestrator.commands.wave1d), its defaults
 WAVE1D = {
     "case": CASE,
-    "coupling": {"layers": Key(_integer, UNSET, at_least_one),
-                 "variant": Key(choice("full", "diagonal"), UNSET),
-                 "relaxation": Key(_relaxation, UNSET, positive)},
-    "wave1d": {"ratio": Key(_integer, UNSET, at_least_one), "element": Key(_number, UNSET, positive),
-               "lf_amplitude": Key(_number, UNSET, positive),
-               "hf_amplitude": Key(_number, UNSET, positive)},
-    "time": {"dt_safety": Key(_number, UNSET, safety_range)},
+    "coupling": {"layers": Key(_integer, 3, at_least_one),
+                 "variant": Key(choice("full", "diagonal"), "diagonal"),
+                 "relaxation": Key(_relaxation, "auto", positive)},
+    "wave1d": {"ratio": Key(_integer, 5, at_least_one)},
 }
 SCHEMAS = {"generic": GENERIC, "slab": SLAB, "wave1d": WAVE1D}
 

@@ -17,6 +17,7 @@ from yade_side.output import read_series
 ROOT = Path(__file__).resolve().parents[1]
 BLOCK = ROOT / "cases" / "block_impact.toml"
 EPS = np.finfo(float).eps
+ROTATIONS_OFF = ["coupling.rotations=false"]
 
 
 @pytest.fixture(scope="module")
@@ -97,3 +98,80 @@ def test_problems_needing_both_models_stop_the_case_before_it_runs(tmp_path, cap
     assert re.search(r"time\.dt = 1e-05 s: above the DE critical step 4\.\d+e-06 s", err)
     assert re.search(r"coupling: bridging spheres in no FE element: point \d+ at .* is in no FE "
                      r"cell \(\d+ of \d+ points are outside the mesh\)", err)
+
+
+def test_a_gmsh_mesh_gives_the_same_run_as_the_box_it_meshes(tmp_path):
+    """The block case on a gmsh file of the same holed plate (read with meshio): same nodes,
+    same mass, and the same sensor histories (bridging spheres set moving) to round-off.
+    Translations only: the script's regular packing puts sphere centres on element faces,
+    where the rotation operator h (a gradient) jumps and either cell is a valid choice."""
+    x, y, z = np.meshgrid(np.linspace(0, 1.2, 21), np.linspace(0, 1.2, 21), np.linspace(0, 0.12, 3),
+                          indexing="ij")
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    node = lambda i, j, k: (i * 21 + j) * 3 + k
+    cells = [[node(i, j, k), node(i + 1, j, k), node(i + 1, j + 1, k), node(i, j + 1, k),
+              node(i, j, k + 1), node(i + 1, j, k + 1), node(i + 1, j + 1, k + 1), node(i, j + 1, k + 1)]
+             for i in range(20) for j in range(20) for k in range(2)
+             if not (7 <= i < 13 and 7 <= j < 13)]               # the DE zone [0.42, 0.78]²
+    meshio.write(tmp_path / "plate.msh", meshio.Mesh(points, [("hexahedron", np.array(cells))]),
+                 file_format="gmsh22", binary=False)
+    text = BLOCK.read_text().replace('mesh = "box"\nlo = [0.0, 0.0, 0.0]\nhi = [1.2, 1.2, 0.12]\n'
+                                     'n = [20, 20, 2]', 'mesh = "plate.msh"')
+    text = text.replace('script = "scripts/', f'script = "{ROOT}/cases/scripts/')
+    text = text.replace("layers = 2", "layers = 2\nelement_size = 0.06")
+    (tmp_path / "gmsh.toml").write_text(text)
+    histories, masses = [], []
+    for case in (load(BLOCK, ROTATIONS_OFF), load(tmp_path / "gmsh.toml", ROTATIONS_OFF)):
+        m = CaseModel(case)
+        masses.append((len(m.fe.nodes), m.fe.mass.sum()))
+        m.bridge.set_velocity(np.random.default_rng(5).normal(size=(len(m.bridge), 3)))
+        h = []
+        for _ in range(40):
+            m.step()
+            h.append(m.sensor_displacements())
+        histories.append(np.array(h))
+    assert masses[0][0] == masses[1][0] and np.isclose(masses[0][1], masses[1][1], rtol=1e-13)
+    scale = np.abs(histories[0]).max()
+    assert scale > 0 and np.allclose(histories[0], histories[1], rtol=0, atol=1e-12 * scale)
+
+
+SMALL = """
+[de]
+script = "{script}"
+[fe]
+lo = [0.0, 0.0, 0.0]
+hi = [0.6, 0.6, 0.1]
+n = [6, 6, 1]
+[coupling]
+zone_lo = [0.2, 0.2, 0.0]
+zone_hi = [0.4, 0.4, 0.1]
+layers = 1
+[time]
+steps = 1
+"""
+SPHERES = """
+from yade import pack
+O.bodies.append(pack.regularHexa(pack.inAlignedBox((0.1, 0.1, 0), (0.5, 0.5, 0.1)), radius=0.02, gap=0.001))
+O.engines = [ForceResetter(), InsertionSortCollider([Bo1_Sphere_Aabb(), Bo1_Box_Aabb()]),
+             InteractionLoop([Ig2_Sphere_Sphere_ScGeom()], [Ip2_FrictMat_FrictMat_FrictPhys()],
+                             [Law2_ScGeom_FrictPhys_CundallStrack()]),
+             NewtonIntegrator(damping=0)]
+"""
+
+
+@pytest.mark.parametrize("extra, reason", [
+    ("O.bodies.appendClumped([sphere((0.45, 0.3, 0.2), 0.02), sphere((0.45, 0.33, 0.2), 0.02)])",
+     "3 bodies in the bridging domain are clumps or clump members"),  # clump + 2 members
+    ("O.bodies.append(box((0.45, 0.3, 0.3), (0.02, 0.02, 0.02)))",
+     "1 bodies in the bridging domain are not spheres"),
+    ("O.bodies.append(sphere((0.45, 0.3, 0.3), 0.02, fixed=True))",
+     "1 bodies in the bridging domain are not dynamic"),
+])
+def test_what_cannot_be_coupled_is_refused_with_a_reason(tmp_path, extra, reason):
+    from yade_side.user_script import ScriptRefused
+    script = tmp_path / "s.py"
+    script.write_text(SPHERES + extra + "\n")
+    case = tmp_path / "c.toml"
+    case.write_text(SMALL.format(script=script))
+    with pytest.raises(ScriptRefused, match=re.escape(reason)):
+        CaseModel(load(case))

@@ -22,6 +22,8 @@ def run(args):
     out = Path(args.out or Path("results") / case["case"]["name"])
     check_out(out, args.force)                # refuse before building, not after
     s = run_case(case, out, force=args.force, quiet=args.quiet, threads=args.threads)
+    if case.kind == "wave1d":        # the wave1d command printed its own result line
+        return 0
     print(f"{case['case']['name']} ({case.kind}): {s['n_spheres']} spheres, {s['n_fe_nodes']} "
           f"FE nodes, {s['n_bridging_spheres']} bridging spheres, {s['steps']} steps of "
           f"{s['dt']:.3g} s, {s['s_per_step'] * 1e3:.2f} ms/step; results in {out}")
