@@ -43,16 +43,16 @@ def configure(p):
 def run(args):
     from dataclasses import asdict, replace
     from orchestrator.results import prepare_out, write_json
-    from yade_side import import_yade
-    import_yade(args.threads)
     from yade_side import calibration as cal
     from yade_side.material import ConcreteParams
 
+    # every input is checked before YADE is imported and the results folder made
     if not 0 < args.tol < 1:
         raise ValueError(f"--tol must be in (0, 1), got {args.tol!r}")
     if args.max_iter < 1:
         raise ValueError(f"--max-iter must be >= 1, got {args.max_iter!r}")
     radius = args.radius if args.radius is not None else SCALE_RADII[args.scale]
+    size = cal.check_specimen(radius, args.size)
     target = cal.Target(young=args.young, compressive_strength=args.fc, poisson=args.poisson,
                         density=args.density)
     start = {k: v for k, v in dict(young=args.cpm_young, sigmaT=args.sigma_t,
@@ -61,8 +61,10 @@ def run(args):
     params = replace(ConcreteParams(), density=args.density, **start)
     loading = cal.Loading(strain_rate=args.strain_rate, tension_rate=0.1 * args.strain_rate)
     out = prepare_out(args.out, args.force)
-    sample = cal.packed_sample(radius, args.size, seed=args.seed)
-    print(f"specimen {args.size[0]} × {args.size[1]} × {args.size[2]} m, R = {radius} m: "
+    from yade_side import import_yade
+    import_yade(args.threads)
+    sample = cal.packed_sample(radius, size, seed=args.seed)
+    print(f"specimen {size[0]} × {size[1]} × {size[2]} m, R = {radius} m: "
           f"{len(sample.radii)} spheres, packing fraction {sample.fraction:.3f}")
     if args.measure_only:
         c = cal.uniaxial_test(sample, params, "compression", loading)
@@ -78,7 +80,7 @@ def run(args):
     runs = {m: {k: r[k] for k in ("steps", "dt", "seconds")} for m, r in (("compression", c),
                                                                          ("tension", t))}
     write_json(out / "calibration.json", dict(
-        radius=radius, size=list(args.size), spheres=len(sample.radii),
+        radius=radius, size=list(size), spheres=len(sample.radii),
         packing_fraction=sample.fraction, target=asdict(target), loading=asdict(loading),
         params=result["params"], measured=macro, iterations=result["iterations"], runs=runs,
         curves=curves))
