@@ -5,7 +5,7 @@ A model (cases.slab.SlabModel, orchestrator.case.CaseModel) provides: `dt`, `ste
 `seconds` (time split of the steps, dict), `fe` (an ElasticModel or None), `damage` (a
 LinkDamage over the measured spheres), `bridge_index` and `in_de_zone` (over them),
 `sensor_names`, `sensor_positions`, `sensor_displacements()` ((n_sensors, 3)), `energy()`,
-`critical` (critical steps) and `sphere_count()`.
+`critical` (critical steps), `sphere_count()`, and `stepper` (its CoupledStepper, or None).
 """
 import logging
 from dataclasses import dataclass
@@ -51,6 +51,7 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
     log.setLevel(logging.INFO)
     try:
         m = model
+        stepper = getattr(m, "stepper", None)      # None: a DE-only model
         guard = BlowUpGuard(reference_energy, growth=2.0)
         log.info("%s: %d spheres, %d FE nodes, %d bridging spheres, dt %.4g s (critical %s), "
                  "%d steps", title, m.sphere_count(), 0 if m.fe is None else len(m.fe.nodes),
@@ -94,8 +95,15 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
                     if m.fe is not None:
                         checked["FE displacement"] = m.fe.u
                     guard.check(n, e, **checked)
-                    bar.set_postfix(t=f"{t * 1e3:.4g} ms", E=f"{e:.4g} J", refresh=False)
-                    log.info("step %d, t = %.6g s, energy %.6g J", n, t, e)
+                    # energy balance: total, and what the coupling put into the FE model and
+                    # created (+) or dissipated (−) itself
+                    meter = stepper.exchange if stepper is not None else None
+                    balance = {} if meter is None else {"to_FE": f"{meter.to_fe:.3g} J",
+                                                        "coupling": f"{meter.net:+.3g} J"}
+                    bar.set_postfix(t=f"{t * 1e3:.4g} ms", E=f"{e:.4g} J", **balance,
+                                    refresh=False)
+                    log.info("step %d, t = %.6g s, energy %.6g J%s", n, t, e,
+                             "".join(f", {k} {v}" for k, v in balance.items()))
                 if n % schedule.output_every == 0 or n == schedule.steps:
                     output(t)
                 bar.update()
@@ -124,6 +132,8 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
                        "damaged_volume_m3": float(final @ volume),
                        "max_bridging_damage": float(final[m.bridge_index].max(initial=0.0))},
             "energy": energy,
+            "coupling_energy_J": None if stepper is None else {
+                "to_fe": stepper.exchange.to_fe, "net": stepper.exchange.net},
             "warnings": warnings,
         })
         write_json(out / "summary.json", summary)

@@ -175,3 +175,22 @@ def test_what_cannot_be_coupled_is_refused_with_a_reason(tmp_path, extra, reason
     case.write_text(SMALL.format(script=script))
     with pytest.raises(ScriptRefused, match=re.escape(reason)):
         CaseModel(load(case))
+
+
+@pytest.mark.slow
+def test_built_in_packing_case_before_contact():
+    """cases/plate_impact.toml (randomDensePack, memoized): before contact the impactor flies
+    rigidly at its initial velocity (its internal forces cancel), the plate and the FE model
+    stay exactly at rest; then the impact reaches the FE model."""
+    m = CaseModel(load(ROOT / "cases" / "plate_impact.toml"))
+    impactor = m.spheres.ref_pos[:, 2] > 0.2
+    assert impactor.any() and m.bridge_index.size > 0
+    for _ in range(100):
+        m.step()
+    m.spheres.read()
+    v = m.spheres.vel
+    assert np.allclose(v[impactor], [0, 0, -40], rtol=0, atol=1e-12 * 40)
+    assert not v[~impactor].any() and not m.fe.u.any()
+    for _ in range(400):
+        m.step()
+    assert np.abs(m.fe.u).max() > 0 and np.isfinite(m.energy())
