@@ -197,19 +197,25 @@ class Target:
                              f"ν < 1/4), got {self.poisson!r}")
 
 
-def _link_ratio(nu):
-    """Shear/normal link stiffness ratio giving ν in a random isotropic packing, estimate
-    ν = (1 − α)/(4 + α) (Liao et al. 1997): only used as the direction of the ν correction."""
-    return (1 - 4 * nu) / (1 + nu)
+def _next_link_ratio(history, nu_target):
+    """Secant step on CpmMat.poisson α (shear/normal link stiffness) towards ν; with one point,
+    the slope of the random-packing estimate ν = (1 − α)/(4 + α) (Liao et al. 1997),
+    dν/dα = −5/(4 + α)². The step stays within [α/2, 2α]."""
+    (a1, n1) = history[-1]
+    slope = -5.0 / (4.0 + a1) ** 2
+    if len(history) > 1 and history[-2][0] != a1:
+        a0, n0 = history[-2]
+        slope = (n1 - n0) / (a1 - a0) if n1 != n0 else slope
+    return float(np.clip(a1 + (nu_target - n1) / slope, a1 / 2, 2 * a1))
 
 
 def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0.01,
               max_iter=6, log=print):
     """Fit young, sigmaT, epsCrackOnset (and poisson if targeted) so that the compression test
     gives target E, fc (ν) within tol (nu_tol), then measure ft by a tension test.
-    Returns dict(params, compression, tension, iterations=[...])."""
+    Returns dict(params, compression, tension, iterations=[...], converged)."""
     params = replace(params or ConcreteParams(), density=target.density)
-    iterations = []
+    iterations, converged = [], False
     for it in range(1, max_iter + 1):
         c = uniaxial_test(sample, params, "compression", loading)
         fc = -c["peak"]
@@ -222,18 +228,20 @@ def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0
         mu = target.young / c["E"]
         lam = target.compressive_strength / (mu * fc)
         nu_ok = target.poisson is None or abs(c["nu"] - target.poisson) <= nu_tol
-        if abs(mu - 1) <= tol and abs(mu * lam - 1) <= tol and nu_ok:
+        converged = abs(mu - 1) <= tol and abs(mu * lam - 1) <= tol and nu_ok
+        if converged:
             break
         if it == max_iter:
             log(f"not converged after {max_iter} iterations")
             break
         if not nu_ok:
-            ratio = _link_ratio(target.poisson) / max(_link_ratio(c["nu"]), 1e-3)
-            params = replace(params, poisson=params.poisson * float(np.clip(ratio, 0.25, 4.0)))
+            history = [(i["params"]["poisson"], i["nu"]) for i in iterations]
+            params = replace(params, poisson=_next_link_ratio(history, target.poisson))
         params = replace(params, young=params.young * mu, sigmaT=params.sigmaT * mu * lam,
                          epsCrackOnset=params.epsCrackOnset * lam)
     t = uniaxial_test(sample, params, "tension", loading)
-    return dict(params=asdict(params), compression=c, tension=t, iterations=iterations)
+    return dict(params=asdict(params), compression=c, tension=t, iterations=iterations,
+                converged=converged)
 
 
 def summary(compression, tension):

@@ -69,7 +69,8 @@ def run(args):
     if args.measure_only:
         c = cal.uniaxial_test(sample, params, "compression", loading)
         t = cal.uniaxial_test(sample, params, "tension", loading)
-        result = dict(params=asdict(params), compression=c, tension=t, iterations=[])
+        result = dict(params=asdict(params), compression=c, tension=t, iterations=[],
+                      converged=None)
     else:
         result = cal.calibrate(sample, target, params, loading, tol=args.tol,
                                max_iter=args.max_iter)
@@ -82,7 +83,8 @@ def run(args):
     write_json(out / "calibration.json", dict(
         radius=radius, size=list(size), spheres=len(sample.radii),
         packing_fraction=sample.fraction, target=asdict(target), loading=asdict(loading),
-        params=result["params"], measured=macro, iterations=result["iterations"], runs=runs,
+        params=result["params"], measured=macro, iterations=result["iterations"],
+        converged=result["converged"], runs=runs,
         curves=curves))
     plot_curves(out / "stress_strain.png", c, t, macro, radius)
     p = result["params"]
@@ -91,7 +93,8 @@ def run(args):
           f"frictionAngle={p['frictionAngle']:.4g} density={p['density']:.4g} (bulk)")
     print(f"measured: E={macro['E'] / 1e9:.2f} GPa nu={macro['nu']:.3f} "
           f"fc={macro['fc'] / 1e6:.2f} MPa ft={macro['ft'] / 1e6:.2f} MPa "
-          f"({len(result['iterations'])} fit iterations); results in {out}")
+          f"({len(result['iterations'])} fit iterations"
+          f"{', NOT converged' if result['converged'] is False else ''}); results in {out}")
     return 0
 
 
