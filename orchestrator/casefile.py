@@ -212,7 +212,9 @@ def load(path, overrides=()):
     problems = []
     for item in overrides:
         _override(raw, item, problems)
-    raw.setdefault("case", {}).setdefault("name", path.stem)
+    if not isinstance(raw.setdefault("case", {}), dict):
+        raise CaseError(path, [f"case = {raw['case']!r}: expected a table ([case])"])
+    raw["case"].setdefault("name", path.stem)
     kind = raw["case"].get("kind", "generic")
     if kind not in SCHEMAS:
         raise CaseError(path, [f"case.kind = {kind!r}: expected one of {tuple(SCHEMAS)}"])
@@ -286,6 +288,9 @@ def _check_generic(d, folder, problems):
                         f"not {'both' if 'script' in de else 'neither'}")
     if "script" in de:
         de["script"] = _existing(folder, de["script"], "de.script", problems)
+        for key in d["material"]["cpm"]:
+            problems.append(f"material.cpm.{key}: only for built-in packings (the script "
+                            f"makes its own materials)")
     for i, p in enumerate(de["packing"]):
         _box_order(p["lo"], p["hi"], f"de.packing[{i}]", problems)
     _box_order(cp["zone_lo"], cp["zone_hi"], "coupling.zone", problems, cp["zone_axes"])

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from orchestrator.case import CaseModel
-from orchestrator.casefile import load
+from orchestrator.casefile import CaseError, load
 from orchestrator.cli import main
 from yade_side.output import read_series
 
@@ -100,11 +100,9 @@ def test_problems_needing_both_models_stop_the_case_before_it_runs(tmp_path, cap
                      r"cell \(\d+ of \d+ points are outside the mesh\)", err)
 
 
-def test_a_gmsh_mesh_gives_the_same_run_as_the_box_it_meshes(tmp_path):
-    """The block case on a gmsh file of the same holed plate (read with meshio): same nodes,
-    same mass, and the same sensor histories (bridging spheres set moving) to round-off.
-    Translations only: the script's regular packing puts sphere centres on element faces,
-    where the rotation operator h (a gradient) jumps and either cell is a valid choice."""
+def write_plate_msh(folder, hole=True):
+    """The block case's plate (1.2 × 1.2 × 0.12 m, 20 × 20 × 2 hexahedra) as a gmsh file, with
+    the DE zone [0.42, 0.78]² cut out, and a case file using it."""
     x, y, z = np.meshgrid(np.linspace(0, 1.2, 21), np.linspace(0, 1.2, 21), np.linspace(0, 0.12, 3),
                           indexing="ij")
     points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
@@ -112,16 +110,25 @@ def test_a_gmsh_mesh_gives_the_same_run_as_the_box_it_meshes(tmp_path):
     cells = [[node(i, j, k), node(i + 1, j, k), node(i + 1, j + 1, k), node(i, j + 1, k),
               node(i, j, k + 1), node(i + 1, j, k + 1), node(i + 1, j + 1, k + 1), node(i, j + 1, k + 1)]
              for i in range(20) for j in range(20) for k in range(2)
-             if not (7 <= i < 13 and 7 <= j < 13)]               # the DE zone [0.42, 0.78]²
-    meshio.write(tmp_path / "plate.msh", meshio.Mesh(points, [("hexahedron", np.array(cells))]),
+             if not (hole and 7 <= i < 13 and 7 <= j < 13)]
+    meshio.write(folder / "plate.msh", meshio.Mesh(points, [("hexahedron", np.array(cells))]),
                  file_format="gmsh22", binary=False)
     text = BLOCK.read_text().replace('mesh = "box"\nlo = [0.0, 0.0, 0.0]\nhi = [1.2, 1.2, 0.12]\n'
                                      'n = [20, 20, 2]', 'mesh = "plate.msh"')
     text = text.replace('script = "scripts/', f'script = "{ROOT}/cases/scripts/')
     text = text.replace("layers = 2", "layers = 2\nelement_size = 0.06")
-    (tmp_path / "gmsh.toml").write_text(text)
+    (folder / "gmsh.toml").write_text(text)
+    return folder / "gmsh.toml"
+
+
+def test_a_gmsh_mesh_gives_the_same_run_as_the_box_it_meshes(tmp_path):
+    """The block case on a gmsh file of the same holed plate (read with meshio): same nodes,
+    same mass, and the same sensor histories (bridging spheres set moving) to round-off.
+    Translations only: the script's regular packing puts sphere centres on element faces,
+    where the rotation operator h (a gradient) jumps and either cell is a valid choice."""
+    gmsh = write_plate_msh(tmp_path)
     histories, masses = [], []
-    for case in (load(BLOCK, ROTATIONS_OFF), load(tmp_path / "gmsh.toml", ROTATIONS_OFF)):
+    for case in (load(BLOCK, ROTATIONS_OFF), load(gmsh, ROTATIONS_OFF)):
         m = CaseModel(case)
         masses.append((len(m.fe.nodes), m.fe.mass.sum()))
         m.bridge.set_velocity(np.random.default_rng(5).normal(size=(len(m.bridge), 3)))
@@ -133,6 +140,16 @@ def test_a_gmsh_mesh_gives_the_same_run_as_the_box_it_meshes(tmp_path):
     assert masses[0][0] == masses[1][0] and np.isclose(masses[0][1], masses[1][1], rtol=1e-13)
     scale = np.abs(histories[0]).max()
     assert scale > 0 and np.allclose(histories[0], histories[1], rtol=0, atol=1e-12 * scale)
+
+
+def test_a_gmsh_mesh_must_hold_the_de_zone_and_leave_it_out(tmp_path):
+    with pytest.raises(CaseError, match=re.escape(
+            "coupling.zone_lo[0] = -0.3: the DE zone is outside the mesh, which spans [0, 1.2] "
+            "along axis 0")):
+        CaseModel(load(write_plate_msh(tmp_path), ["coupling.zone_lo=[-0.3, 0.42, 0.0]"]))
+    with pytest.raises(CaseError, match=re.escape(
+            "fe.mesh: 72 elements lie inside the DE zone; the FE mesh must leave the DE zone out")):
+        CaseModel(load(write_plate_msh(tmp_path, hole=False)))
 
 
 SMALL = """

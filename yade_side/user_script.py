@@ -30,7 +30,6 @@ from yade_side import import_yade
 
 LAUNCHER_NAMESPACE = ("from yade import *\nfrom yade import utils, pack, geom\n"
                       "from yade.utils import *\nfrom yade.pack import *\nfrom math import *\n")
-_STEP_NAME = "_orchestrator_step_{}"
 
 
 class ScriptRefused(ValueError):
@@ -146,12 +145,13 @@ def body_table():
             "clump": a[:, 5].astype(bool), "dynamic": a[:, 6].astype(bool)}
 
 
-def insert_after_newton(callback, label="orchestrator"):
-    """Insert a PyRunner calling `callback()` every step right after NewtonIntegrator."""
+def insert_after_newton(callback, label="coupling_step"):
+    """Insert a PyRunner calling `callback()` every step right after NewtonIntegrator (YADE
+    also makes `label` a builtin name for the engine, as for any labelled engine)."""
     yade = import_yade()
     import __main__
     O = yade.Omega()
-    name = _STEP_NAME.format(label)
+    name = f"_{label}"
     setattr(__main__, name, callback)
     engines = list(O.engines)
     i = next(k for k, e in enumerate(engines) if isinstance(e, yade.wrapper.NewtonIntegrator))
