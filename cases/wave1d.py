@@ -159,11 +159,22 @@ def lattice_energy(d0, d1, dt, mass, stiffness, omega_split):
     return float(e[low].sum()), float(e[~low].sum())
 
 
+def lattice_invariant(d0, d1, dt, mass, stiffness, points, links, point_weight, link_weight):
+    """Weighted leap-frog invariant Σ w ½ m v² over `points` (mask) + Σ w ½ k Δd₀ Δd₁ over
+    `links` (index i: the link i, i+1) of a lattice."""
+    v = (d1[points] - d0[points]) / dt
+    mass = np.broadcast_to(mass, d0.shape)[points]
+    kinetic = 0.5 * np.sum(point_weight[points] * mass * v * v)
+    strain = np.sum(link_weight * (d0[links + 1] - d0[links]) * (d1[links + 1] - d1[links]))
+    return float(kinetic + 0.5 * stiffness * strain)
+
+
 @dataclass
 class Wave1DResult:
     incident: tuple          # (low, high) energies, J
     reflected: tuple
     transmitted: tuple
+    overlap: float           # weighted energy left in the bridging domain at t_reflected
     coupling_work: float     # net work of the multipliers (0 when the constraints hold)
     max_gap: float           # largest |d − k u| over bridging spheres and steps, m
     dt: float
@@ -238,7 +249,21 @@ def run(spec):
 
     transmitted = lattice_energy(snaps[n_ref][1][fe_only], snaps[n_ref + 1][1][fe_only], dt,
                                  m_fe, k_fe, lay.omega_split)
-    return Wave1DResult(de_energy(n_inc), de_energy(n_ref), transmitted,
+    # what stays in the overlap, weighted as the bridging Hamiltonian (β on spheres, α on
+    # the bar); its links are those the DE-zone and FE-only energies leave out
+    d0, d1 = snaps[n_ref][0], snaps[n_ref + 1][0]
+    x_fe = lay.h * np.arange(n_stations)
+    u0, u1 = snaps[n_ref][1], snaps[n_ref + 1][1]
+    m_st = np.bincount(station, fe.mass[0::3])
+    in_chain, in_bar = ~de_zone, ~fe_only
+    links_chain, links_bar = np.flatnonzero(in_chain), np.arange(lay.n_fe - spec.layers, lay.n_fe)
+    mid = lambda x, i: np.column_stack([0.5 * (x[i] + x[i + 1]), 0 * i, 0 * i])
+    xyz = lambda x: np.column_stack([x, 0 * x, 0 * x])
+    overlap = (lattice_invariant(d0, d1, dt, m_de, k_de, in_chain, links_chain,
+                                 bridging.beta(xyz(x_chain)), bridging.beta(mid(x_chain, links_chain)))
+               + lattice_invariant(u0, u1, dt, m_st, k_fe, in_bar, links_bar,
+                                   bridging.alpha(xyz(x_fe)), bridging.alpha(mid(x_fe, links_bar))))
+    return Wave1DResult(de_energy(n_inc), de_energy(n_ref), transmitted, overlap,
                         stepper.exchange.net, max_gap, dt, n_ref + 1, len(bridge),
                         perf_counter() - start, x_chain[de_zone], snaps[n_ref][0][de_zone],
                         lay.h * np.arange(n_stations), snaps[n_ref][1])
@@ -277,7 +302,9 @@ def summarise(spec, result, reference):
         "reflected_low_frequency_energy": result.reflected[0],
         "reflected_high_frequency_energy": result.reflected[1],
         "transmitted_high_frequency_energy": result.transmitted[1],
-        "energy_left_in_bridging_or_dissipated": incident - reflected - sum(result.transmitted),
+        "overlap_energy": result.overlap,
+        "energy_balance_residual": (incident - reflected - sum(result.transmitted)
+                                    - result.overlap),
         "coupling_net_work": result.coupling_work,
         "max_constraint_gap": result.max_gap,
         "parameters": {**asdict(spec), "time_step": result.dt, "steps": result.steps,
@@ -326,7 +353,7 @@ def _save(fig, path):
 STUDY_LAYERS = (1, 2, 3, 4, 5, 6)
 STUDY_RELAXATIONS = tuple(np.round(np.logspace(0, 2, 13), 3))   # 1 … 100, 6 per decade
 AUTO_RATIOS = (2, 3, 4, 5, 6, 7, 8)
-CSV_FIELDS = ("study", "variant", "solver", "relaxation", "layers", "ratio",
+CSV_FIELDS = ("study", "variant", "solver", "relaxation", "layers", "ratio", "dt_safety",
               "attenuation_percent", "low_frequency_transmission_change_percent",
               "incident_energy", "reflected_energy", "reflected_low_frequency_energy",
               "reflected_high_frequency_energy", "transmitted_low_frequency_energy",
@@ -334,18 +361,20 @@ CSV_FIELDS = ("study", "variant", "solver", "relaxation", "layers", "ratio",
 
 
 def study_cases(layers=STUDY_LAYERS, relaxations=STUDY_RELAXATIONS, ratios=AUTO_RATIOS,
-                ratio=5):
+                ratio=5, dt_safety=0.8):
     """(study, variant, spec) of the sweep: the four variants at `ratio` over n_b and r, and
     the automatic r (both solvers) at n_b = 3 for every ratio."""
     for nb in layers:
         for solver in ("full", "diagonal"):
-            yield "variants", solver, Wave1DSpec(solver, 1.0, nb, ratio)
+            yield "variants", solver, Wave1DSpec(solver, 1.0, nb, ratio, dt_safety=dt_safety)
             for r in relaxations:
                 if r > 1:
-                    yield "variants", f"{solver}+relaxation", Wave1DSpec(solver, r, nb, ratio)
+                    yield "variants", f"{solver}+relaxation", Wave1DSpec(
+                        solver, r, nb, ratio, dt_safety=dt_safety)
     for q in ratios:
         for solver in ("full", "diagonal"):
-            yield "auto", f"{solver}+relaxation", Wave1DSpec(solver, "auto", 3, q)
+            yield "auto", f"{solver}+relaxation", Wave1DSpec(solver, "auto", 3, q,
+                                                              dt_safety=dt_safety)
 
 
 def run_study(out, cases, quiet=False):
@@ -366,7 +395,8 @@ def run_study(out, cases, quiet=False):
             s = summarise(spec, res, ref)
             rows.append({"study": study, "variant": variant, "solver": spec.variant,
                          "relaxation": spec.relaxation, "layers": spec.layers,
-                         "ratio": spec.ratio, **{k: s[k] for k in CSV_FIELDS if k in s}})
+                         "ratio": spec.ratio, "dt_safety": spec.dt_safety,
+                         **{k: s[k] for k in CSV_FIELDS if k in s}})
             if spec.layers == 3 and spec.ratio == 5:
                 shapes[(variant, spec.relaxation)] = res
                 shapes[("full", 1.0)] = ref
@@ -399,8 +429,9 @@ def markdown_table(rows):
     """The docs' tables: per n_b, diagonal alone and the best r of each relaxed variant
     (ratio 5), the 25–35 band of the paper; then the automatic r over the ratios."""
     lines = ["| n_b | diagonal r=1: att. % (LF %) | full+relax: best r, att. % (LF %) | "
-             "diag+relax: best r, att. % (LF %) | diag+relax r in 25-35: att. % (LF %) |",
-             "|---|---|---|---|---|"]
+             "diag+relax: best r, att. % (LF %) | diag+relax r in 25-35: att. % (LF %) | "
+             "diag+relax: r with >= 80 % | r with >= 99 % |",
+             "|---|---|---|---|---|---|---|"]
     for nb in sorted({r["layers"] for r in rows if r["study"] == "variants"}):
         diag = [r for r in rows if r["study"] == "variants" and r["variant"] == "diagonal"
                 and r["layers"] == nb]
@@ -411,6 +442,11 @@ def markdown_table(rows):
         band = [r for r in rows if r["study"] == "variants" and r["variant"] ==
                 "diagonal+relaxation" and r["layers"] == nb and 25 <= r["relaxation"] <= 35]
         cells.append(", ".join(f"r={r['relaxation']:g}: {_fmt(r)}" for r in band) or "-")
+        relaxed = [r for r in rows if r["study"] == "variants" and r["layers"] == nb
+                   and r["variant"] in ("diagonal", "diagonal+relaxation")]
+        for level in (80, 99):
+            ok = sorted(r["relaxation"] for r in relaxed if r["attenuation_percent"] >= level)
+            cells.append(f"{ok[0]:g} – {ok[-1]:g} ({len(ok)} of {len(relaxed)})" if ok else "none")
         lines.append("| " + " | ".join(cells) + " |")
     auto = [r for r in rows if r["study"] == "auto"]
     if auto:
@@ -467,13 +503,14 @@ def plot_study(out, rows, shapes):
             axes[0].legend(fontsize=7)
             fig.tight_layout()
             _save(fig, out / name)
-    if shapes:
-        fig, axes = plt.subplots(len(shapes), 1, figsize=(8, 1.4 * len(shapes) + 0.8),
-                                 sharex=True, sharey=True)
-        keys = [("full", 1.0)] + sorted(k for k in shapes if k != ("full", 1.0))
-        picks = [k for k in keys if k[0] in ("full", "diagonal") or k[1] in
-                 {best(rows, k[0], 3)["relaxation"] if best(rows, k[0], 3) else None}]
-        plt.close(fig)
+    picks = [("full", 1.0), ("diagonal", 1.0)]
+    for v in ("full+relaxation", "diagonal+relaxation"):
+        b = best(rows, v, 3)
+        picks += [(v, b["relaxation"])] if b else []
+        picks += [(v, r["relaxation"]) for r in rows
+                  if r["study"] == "auto" and r["ratio"] == 5 and r["variant"] == v]
+    picks = [k for k in dict.fromkeys(picks) if k in shapes]
+    if picks:
         fig, axes = plt.subplots(len(picks), 1, figsize=(8, 1.3 * len(picks) + 0.8),
                                  sharex=True, sharey=True, squeeze=False)
         for ax, k in zip(axes[:, 0], picks):

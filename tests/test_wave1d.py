@@ -111,13 +111,15 @@ def test_full_lagrange_keeps_constraints_to_round_off_and_does_no_work(reference
 
 def test_full_lagrange_balances_energy_and_reflects_the_high_frequencies(reference):
     """Both partners are conservative leap-frog schemes and the exact multipliers do no
-    work, so incident = reflected + transmitted + what stays in the overlap; once the waves
-    have left it the overlap holds nothing but the packets' truncated tails (e^-8 of the
-    peak amplitude, e^-16 in energy) and the evanescent field of the HF that the bar cannot
-    carry, which decays over a few spacings: bound the remainder by 1e-3 of the input."""
+    work, so incident = reflected + transmitted + what stays in the overlap (weighted as the
+    bridging Hamiltonian). Once the waves have left the overlap it holds only the packets'
+    truncated tails (e^-8 of the peak amplitude) and the evanescent field of the HF that the
+    bar cannot carry; the β-ramp makes the weighted system conservative only up to the
+    constraint, not exactly: bound the remainder by 1e-3 of the input."""
     _, res, _, _ = reference
     incident = sum(res.incident)
-    out = sum(res.reflected) + sum(res.transmitted)
+    assert 0 <= res.overlap <= 1e-3 * incident
+    out = sum(res.reflected) + sum(res.transmitted) + res.overlap
     assert out == pytest.approx(incident, rel=1e-3)
     # the HF packet lies beyond the bar's cut-off: all of it comes back
     assert res.reflected[1] == pytest.approx(res.incident[1], rel=1e-3)
@@ -159,6 +161,8 @@ def test_relaxed_variants_reflect_less_and_dissipate():
     res, ref = wave1d.run(spec), wave1d.run(spec.reference())
     assert res.coupling_work < 0
     assert sum(res.reflected) < sum(ref.reflected)
+    # the missing energy is not stored in the overlap: it is dissipated
+    assert res.overlap < 1e-3 * (sum(ref.reflected) - sum(res.reflected))
     assert sum(res.incident) == pytest.approx(sum(ref.incident), rel=1e-12)
 
 

@@ -21,6 +21,8 @@ def configure(p):
     p.add_argument("--layers", type=int, default=3, help="bridging FE layers n_b (default 3)")
     p.add_argument("--ratio", type=int, default=5,
                    help="FE element length / sphere spacing (default 5)")
+    p.add_argument("--dt-safety", type=float, default=0.8,
+                   help="time step / the smaller critical step (default 0.8)")
     p.add_argument("--out", required=True, help="results folder")
     p.add_argument("--force", action="store_true", help="replace an existing results folder")
 
@@ -29,7 +31,7 @@ def run(args):
     from cases import wave1d
     from orchestrator.results import prepare_out, write_json
     spec = wave1d.Wave1DSpec(variant=args.variant, relaxation=args.relaxation,
-                             layers=args.layers, ratio=args.ratio)
+                             layers=args.layers, ratio=args.ratio, dt_safety=args.dt_safety)
     out = prepare_out(args.out, args.force)
     reference = wave1d.run(spec.reference())
     result = reference if spec == spec.reference() else wave1d.run(spec)

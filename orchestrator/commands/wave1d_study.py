@@ -9,6 +9,8 @@ def configure(p):
     p.add_argument("--force", action="store_true", help="replace an existing results folder")
     p.add_argument("--quick", action="store_true",
                    help="a coarse sweep (n_b 1, 3; 5 values of r; ratios 2, 5, 8) for a check")
+    p.add_argument("--dt-safety", type=float, default=0.8,
+                   help="time step / the smaller critical step (default 0.8; the slab uses 0.3)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -18,9 +20,9 @@ def run(args):
     from orchestrator.results import prepare_out
     if args.quick:
         cases = wave1d.study_cases(layers=(1, 3), relaxations=tuple(np.logspace(0, 2, 5)),
-                                   ratios=(2, 5, 8))
+                                   ratios=(2, 5, 8), dt_safety=args.dt_safety)
     else:
-        cases = wave1d.study_cases()
+        cases = wave1d.study_cases(dt_safety=args.dt_safety)
     out = prepare_out(args.out, args.force)
     rows = wave1d.run_study(out, cases, quiet=args.quiet)
     print(wave1d.markdown_table(rows), end="")
