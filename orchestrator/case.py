@@ -55,7 +55,7 @@ class CaseModel:
         if problems:
             raise CaseError(case.path, problems)
         if "script" in d["de"]:
-            ids, self.reference_energy = self._script_scene(d["de"], problems)
+            ids, self.reference_energy = self._script_scene(d["de"])
         else:
             ids, self.reference_energy = self._packing_scene(d["de"]["packing"], mat, d["time"])
         if len(ids) == 0:
@@ -119,9 +119,11 @@ class CaseModel:
                                     f"the mesh, which spans [{lo[a]:g}, {hi[a]:g}] along axis {a}")
         if problems:
             return None
-        supports = [(face("xyz".index(c["face"][0]), (lo if c["face"].endswith("min") else hi)
-                          ["xyz".index(c["face"][0])]), tuple(AXIS[k] for k in c["components"]))
-                    for c in fe["dirichlet"]]
+        supports = []
+        for c in fe["dirichlet"]:          # faces are planes of the mesh's bounding box
+            axis = AXIS[c["face"][0]]
+            plane = lo[axis] if c["face"].endswith("min") else hi[axis]
+            supports.append((face(axis, plane), tuple(AXIS[k] for k in c["components"])))
         try:
             model = ElasticModel(msh, mat["young"], mat["poisson"], mat["density"], supports)
         except ValueError as e:
@@ -159,7 +161,7 @@ class CaseModel:
                 energy += body.kinetic_energy()
         return np.concatenate([g[0] for g in groups]), energy
 
-    def _script_scene(self, de, problems):
+    def _script_scene(self, de):
         from yade_side.bulk import BodySet
         from yade_side.user_script import ScriptRefused, body_table, prepare_dynamics, run_script
         self.script = run_script(de["script"], de["script_args"])
@@ -178,8 +180,9 @@ class CaseModel:
         keep = ~np.isnan(bodies["radius"]) & ~bodies["clump"] & bodies["dynamic"]
         beyond = keep & (self.bridging.zone.depth(bodies["pos"]) > self.bridging.width)
         if beyond.any():
-            self.notes.append(f"{name}: {beyond.sum()} spheres lie beyond the bridging domain "
-                              f"(inside the FE-only region); they are not coupled")
+            self.notes.append(f"{name}: {beyond.sum()} spheres lie beyond the bridging domain, "
+                              f"where the FE model is: they are not coupled and the structure "
+                              f"is modelled twice there")
         ids = bodies["ids"][keep]
         energy = BodySet(ids).kinetic_energy() if ids.size else 0.0
         return ids, energy
