@@ -27,9 +27,6 @@ LF_ELEMENTS = 20               # LF pulse sin²(πt/T), c T = 20 h: wavelengths 
 HF_BANDWIDTH = 0.08            # relative spectral std of the Gaussian HF wave packet
 HF_CUT = 4.0                   # HF packet cut at ±4 standard deviations (e^-8 of the peak)
 MARGIN_ELEMENTS = 6            # clearance kept between waves and region edges, in h
-VARIANTS = {                   # the study's four variants: (solver, relaxed)
-    "full": ("full", False), "full+relaxation": ("full", True),
-    "diagonal": ("diagonal", False), "diagonal+relaxation": ("diagonal", True)}
 
 
 def auto_relaxation(ratio, layers, variant="diagonal", dt_safety=0.8):
@@ -159,14 +156,16 @@ def lattice_energy(d0, d1, dt, mass, stiffness, omega_split):
     return float(e[low].sum()), float(e[~low].sum())
 
 
-def lattice_invariant(d0, d1, dt, mass, stiffness, points, links, point_weight, link_weight):
-    """Weighted leap-frog invariant Σ w ½ m v² over `points` (mask) + Σ w ½ k Δd₀ Δd₁ over
-    `links` (index i: the link i, i+1) of a lattice."""
+def weighted_invariant(d0, d1, dt, mass, stiffness, x, points, links, weight):
+    """Leap-frog invariant Σ w ½ m v² over `points` (mask) + Σ w ½ k Δd₀ Δd₁ over `links`
+    (index i: the link of points i, i+1) of a lattice at positions x along the axis, with
+    the bridging weight w(x) (α or β) at the points and at the links' midpoints."""
+    on_axis = lambda xs: np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)])
     v = (d1[points] - d0[points]) / dt
-    mass = np.broadcast_to(mass, d0.shape)[points]
-    kinetic = 0.5 * np.sum(point_weight[points] * mass * v * v)
-    strain = np.sum(link_weight * (d0[links + 1] - d0[links]) * (d1[links + 1] - d1[links]))
-    return float(kinetic + 0.5 * stiffness * strain)
+    kinetic = np.sum(weight(on_axis(x[points])) * np.broadcast_to(mass, x.shape)[points] * v * v)
+    w_links = weight(on_axis(0.5 * (x[links] + x[links + 1])))
+    strain = np.sum(w_links * (d0[links + 1] - d0[links]) * (d1[links + 1] - d1[links]))
+    return float(0.5 * kinetic + 0.5 * stiffness * strain)
 
 
 @dataclass
@@ -183,6 +182,7 @@ class Wave1DResult:
     seconds: float
     x_de: np.ndarray         # DE-zone sphere positions and their displacement at t_reflected
     u_de: np.ndarray
+    u_de_incident: np.ndarray  # ... and at t_incident
     x_fe: np.ndarray         # bar stations and their displacement at t_reflected
     u_fe: np.ndarray
 
@@ -249,24 +249,18 @@ def run(spec):
 
     transmitted = lattice_energy(snaps[n_ref][1][fe_only], snaps[n_ref + 1][1][fe_only], dt,
                                  m_fe, k_fe, lay.omega_split)
-    # what stays in the overlap, weighted as the bridging Hamiltonian (β on spheres, α on
-    # the bar); its links are those the DE-zone and FE-only energies leave out
-    d0, d1 = snaps[n_ref][0], snaps[n_ref + 1][0]
+    # what stays in the overlap, weighted as the bridging Hamiltonian: the points and links
+    # that the DE-zone and FE-only energies leave out
     x_fe = lay.h * np.arange(n_stations)
-    u0, u1 = snaps[n_ref][1], snaps[n_ref + 1][1]
-    m_st = np.bincount(station, fe.mass[0::3])
-    in_chain, in_bar = ~de_zone, ~fe_only
-    links_chain, links_bar = np.flatnonzero(in_chain), np.arange(lay.n_fe - spec.layers, lay.n_fe)
-    mid = lambda x, i: np.column_stack([0.5 * (x[i] + x[i + 1]), 0 * i, 0 * i])
-    xyz = lambda x: np.column_stack([x, 0 * x, 0 * x])
-    overlap = (lattice_invariant(d0, d1, dt, m_de, k_de, in_chain, links_chain,
-                                 bridging.beta(xyz(x_chain)), bridging.beta(mid(x_chain, links_chain)))
-               + lattice_invariant(u0, u1, dt, m_st, k_fe, in_bar, links_bar,
-                                   bridging.alpha(xyz(x_fe)), bridging.alpha(mid(x_fe, links_bar))))
+    overlap = (weighted_invariant(snaps[n_ref][0], snaps[n_ref + 1][0], dt, m_de, k_de, x_chain,
+                                  ~de_zone, np.flatnonzero(~de_zone), bridging.beta)
+               + weighted_invariant(snaps[n_ref][1], snaps[n_ref + 1][1], dt,
+                                    np.bincount(station, fe.mass[0::3]), k_fe, x_fe, ~fe_only,
+                                    np.arange(lay.n_fe - spec.layers, lay.n_fe), bridging.alpha))
     return Wave1DResult(de_energy(n_inc), de_energy(n_ref), transmitted, overlap,
                         stepper.exchange.net, max_gap, dt, n_ref + 1, len(bridge),
                         perf_counter() - start, x_chain[de_zone], snaps[n_ref][0][de_zone],
-                        lay.h * np.arange(n_stations), snaps[n_ref][1])
+                        snaps[n_inc][0][de_zone], x_fe, snaps[n_ref][1])
 
 
 def bar_model(n_elements, h):

@@ -138,6 +138,20 @@ def test_full_lagrange_transmits_the_low_frequencies_like_matched_impedances(ref
     assert 1 - loss <= fraction <= 1 + 1e-3
 
 
+def test_yade_chain_alone_carries_the_lf_pulse_at_the_bar_speed(reference):
+    """Before it reaches the bridging domain the LF pulse is on the YADE chain alone: its
+    centroid, which leaves the driven end at T/2, is at x_end − c (t − T/2), within the
+    lattice's phase lag (κL)²/24 at the main-lobe edge over the path."""
+    _, _, spec, res = reference
+    lay = Layout(spec)
+    t = math.ceil(lay.t_incident / res.dt) * res.dt
+    centroid = np.sum(res.x_de * res.u_de_incident) / np.sum(res.u_de_incident)
+    x_end = lay.x0_chain + (lay.n_spheres - 1) * lay.L
+    path = C * (t - lay.T_lf / 2)
+    kL = 2 * math.pi / (10 * lay.h) * lay.L
+    assert centroid == pytest.approx(x_end - path, abs=kL ** 2 / 24 * path)
+
+
 def test_chain_and_bar_carry_the_lf_pulse_at_the_bar_speed(reference):
     """The transmitted pulse's centroid leaves the driven end at T/2 and, through chain and
     bar, travels at c: at the reflected instant it is at x_end − c (t − T/2), within the
