@@ -12,7 +12,7 @@ Energies are leap-frog invariants of regions of the two models at two instants (
 the reflected wave, back in the DE zone before it reaches the driven end; the transmitted
 wave, in the FE-only part of the bar. Each is split into low and high frequencies by a
 discrete Fourier transform over its region (Parseval, exact for a uniform lattice), at
-ω_split = c/h: half the bar's cut-off 2c/h, where the lumped bar's phase error is ~4 %.
+ω_split = c/h: half the bar's cut-off 2c/h, where the lumped bar's phase error is ~5 %.
 """
 import csv
 import math
