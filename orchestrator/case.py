@@ -316,15 +316,19 @@ def run_case(case, out, force=False, quiet=False, threads=None):
 
 
 def _run_wave1d(case, out, force):
-    """The wave1d command on the case file's keys (it writes its own results folder)."""
-    from argparse import Namespace
-    from orchestrator.commands import wave1d
-    cp = case["coupling"]
-    args = Namespace(variant=cp["variant"], relaxation=cp["relaxation"], layers=cp["layers"],
-                     ratio=case["wave1d"]["ratio"], out=out, force=force)
-    wave1d.run(args)
-    _write_case(case, out)
+    """The `wave1d` command with the case file's keys as its options (it writes its own
+    results folder)."""
     import json
+    from orchestrator.cli import build_parser
+    keys = {"--layers": case["coupling"].get("layers"), "--variant": case["coupling"].get("variant"),
+            "--relaxation": case["coupling"].get("relaxation"),
+            "--ratio": case["wave1d"].get("ratio"), "--dt-safety": case["time"].get("dt_safety")}
+    argv = ["wave1d", "--out", str(out)] + (["--force"] if force else [])
+    argv += [item for option, value in keys.items() if value is not None
+             for item in (option, str(value))]
+    args = build_parser().parse_args(argv)
+    args.func(args)
+    _write_case(case, out)
     return json.loads((out / "summary.json").read_text())
 
 

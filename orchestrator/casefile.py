@@ -179,13 +179,15 @@ SLAB = {
              "steps": Key(_integer, UNSET, at_least_one)},
     "output": _unset(OUTPUT),
 }
-# wave1d: the keys of the `wave1d` command (orchestrator.commands.wave1d), its defaults
+# wave1d: the options of the `wave1d` command (orchestrator.commands.wave1d); unset keys
+# keep the command's defaults
 WAVE1D = {
     "case": CASE,
-    "coupling": {"layers": Key(_integer, 3, at_least_one),
-                 "variant": Key(choice("full", "diagonal"), "diagonal"),
-                 "relaxation": Key(_relaxation, "auto", positive)},
-    "wave1d": {"ratio": Key(_integer, 5, at_least_one)},
+    "coupling": {"layers": Key(_integer, UNSET, at_least_one),
+                 "variant": Key(choice("full", "diagonal"), UNSET),
+                 "relaxation": Key(_relaxation, UNSET, positive)},
+    "wave1d": {"ratio": Key(_integer, UNSET, at_least_one)},
+    "time": {"dt_safety": Key(_number, UNSET, safety_range)},
 }
 SCHEMAS = {"generic": GENERIC, "slab": SLAB, "wave1d": WAVE1D}
 

@@ -137,10 +137,10 @@ def test_the_slab_case_file_is_the_slab_commands_default():
 
 
 def test_the_wave1d_case_file_holds_the_wave1d_commands_defaults():
-    pytest.importorskip("orchestrator.commands.wave1d")
     from orchestrator.cli import build_parser
     args = build_parser().parse_args(["wave1d", "--out", "x"])
     case = load(ROOT / "cases" / "wave1d.toml")
     cp = case["coupling"]
-    assert (cp["variant"], cp["relaxation"], cp["layers"], case["wave1d"]["ratio"]) == (
-        args.variant, args.relaxation, args.layers, args.ratio)
+    assert (cp["variant"], cp["relaxation"], cp["layers"], case["wave1d"]["ratio"],
+            case["time"]["dt_safety"]) == (args.variant, args.relaxation, args.layers,
+                                           args.ratio, args.dt_safety)

@@ -211,3 +211,12 @@ def test_built_in_packing_case_before_contact():
     for _ in range(400):
         m.step()
     assert np.abs(m.fe.u).max() > 0 and np.isfinite(m.energy())
+
+
+def test_the_wave1d_case_file_runs_the_wave1d_command_with_its_keys(tmp_path):
+    out = tmp_path / "w"
+    assert main(["run", str(ROOT / "cases" / "wave1d.toml"), "--set", "coupling.layers=2",
+                 "--out", str(out), "--quiet"]) == 0
+    parameters = json.loads((out / "summary.json").read_text())["parameters"]
+    assert parameters["layers"] == 2 and parameters["variant"] == "diagonal"
+    assert load(out / "case.toml")["coupling"]["layers"] == 2
