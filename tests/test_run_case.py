@@ -3,6 +3,7 @@ reads back, the coupling step inserted in YADE's engine list is exact, and the c
 need both models stop a bad case before its first step."""
 import json
 import re
+import textwrap
 from pathlib import Path
 
 import meshio
@@ -220,3 +221,38 @@ def test_the_wave1d_case_file_runs_the_wave1d_command_with_its_keys(tmp_path):
     parameters = json.loads((out / "summary.json").read_text())["parameters"]
     assert parameters["layers"] == 2 and parameters["variant"] == "diagonal"
     assert load(out / "case.toml")["coupling"]["layers"] == 2
+
+
+def test_a_script_that_never_steps_gets_its_links_counted_after_the_first_step(tmp_path):
+    """Damage needs the initial cohesive links: a script that leaves O.iter at 0 makes them in
+    the first coupled step, and they are recorded then (none broken yet)."""
+    script = tmp_path / "cpm.py"
+    script.write_text(textwrap.dedent("""
+        from yade import pack
+        mat = O.materials.append(CpmMat(young=30e9, density=4000, sigmaT=3e6, epsCrackOnset=1e-4,
+                                        relDuctility=30, frictionAngle=0.6))
+        O.bodies.append(pack.regularHexa(pack.inAlignedBox((0.1, 0.1, 0), (0.5, 0.5, 0.1)),
+                                         radius=0.02, gap=0, material=mat))
+        O.engines = [ForceResetter(),
+                     InsertionSortCollider([Bo1_Sphere_Aabb(aabbEnlargeFactor=1.5)]),
+                     InteractionLoop([Ig2_Sphere_Sphere_ScGeom(interactionDetectionFactor=1.5)],
+                                     [Ip2_CpmMat_CpmMat_CpmPhys()], [Law2_ScGeom_CpmPhys_Cpm()]),
+                     NewtonIntegrator(damping=0)]
+    """))
+    case = tmp_path / "c.toml"
+    case.write_text(SMALL.format(script=script))
+    m = CaseModel(load(case))
+    assert m.O.iter == 0 and m.damage.initial.sum() == 0
+    m.step()
+    assert m.damage.initial.sum() > 0 and not m.damage.update().any()
+
+
+@pytest.mark.slow
+def test_the_slab_case_file_runs_the_slab(tmp_path):
+    out = tmp_path / "slab"
+    assert main(["run", str(ROOT / "cases" / "slab.toml"), "--set", "time.steps=30",
+                 "--set", "output.every=15", "--out", str(out), "--quiet"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["model"] == "coupled" and s["steps"] == 30 and s["spec"]["relaxation"] == 35.0
+    for name in ("case.toml", "run.log", "spheres.pvd", "fe.xdmf", "sensors.png", "damage.png"):
+        assert (out / name).is_file(), name
