@@ -99,6 +99,10 @@ def test_problems_needing_both_models_stop_the_case_before_it_runs(tmp_path, cap
     assert re.search(r"time\.dt = 1e-05 s: above the DE critical step 4\.\d+e-06 s", err)
     assert re.search(r"coupling: bridging spheres in no FE element: point \d+ at .* is in no FE "
                      r"cell \(\d+ of \d+ points are outside the mesh\)", err)
+    assert main(["run", str(BLOCK), "--set", "fe.lo=[0.0, 0.0, 0.2]", "--set",
+                 "fe.hi=[1.2, 1.2, 0.32]", "--out", str(out), "--quiet"]) == 2
+    assert re.search(r"none of the \d+ bridging spheres lies in the FE mesh's bounding box "
+                     r"\[-?0\.0, -?0\.0, 0\.2\]–\[1\.2, 1\.2, 0\.32\]", capsys.readouterr().err)
 
 
 def write_plate_msh(folder, hole=True):
