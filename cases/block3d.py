@@ -8,12 +8,23 @@ displacement u = f(t) B x imposed on its four faces y, z = const, whose exact an
 (below, `shear_gradient`).
 
 With `uniform_weight` set, spheres and FE instead fill the whole block and every sphere is
-coupled with the same α = w, β = 1 − w (`UniformOverlap`): the one arrangement in which the
-weighted coupled system has an exact energy (see docs/coupling.md, "Coupled 3D block").
+coupled with the same α = w, β = 1 − w (`UniformOverlap`).
+
+Two ways to weigh the energies in the bridging band (`weighting`):
+- "nodal", the paper's (METHOD.md): α_i m_i ü_i = α_i Fg_i + …, β_j M_j d̈_j = β_j F_j − …;
+  the weights cancel in the predictors. Not conservative when the weights vary: a ramped band
+  makes the coupled system gain energy exponentially (docs/coupling.md, "Coupled 3D block");
+- "consistent": each partner integrates its weighted energy, α H_FE (stiffness ∫ α ε:C:ε and
+  mass ∫ α ρ N) and β H_DE (sphere masses × β, link forces × the mean β of the two spheres);
+  the coupled system is then Hamiltonian and the leap-frog conserves its energy. Set up once,
+  no cost per step.
 """
 from dataclasses import dataclass
 
 import numpy as np
+
+
+WEIGHTINGS = ("nodal", "consistent")
 
 
 @dataclass
@@ -33,6 +44,7 @@ class BlockSpec:
     relaxation: float = 1.0
     rotations: bool = True
     uniform_weight: float = None       # α everywhere: spheres and FE overlap on the whole block
+    weighting: str = "nodal"           # "nodal" (the paper's) or "consistent" (see above)
 
     def __post_init__(self):
         self.size = tuple(float(s) for s in self.size)
@@ -42,6 +54,8 @@ class BlockSpec:
                 raise ValueError(f"block: {name} must be > 0, got {getattr(self, name)!r}")
         if not 0 < self.dt_safety <= 1:
             raise ValueError(f"block: dt_safety must be in (0, 1], got {self.dt_safety!r}")
+        if self.weighting not in WEIGHTINGS:
+            raise ValueError(f"block: weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
         if self.uniform_weight is not None and not 0 < self.uniform_weight < 1:
             raise ValueError(f"block: uniform_weight must be in (0, 1), got {self.uniform_weight!r}")
         cells = (np.array(self.size) - self.fe_lo) / self.element
@@ -91,14 +105,16 @@ class CoupledBlock:
 
     spheres: BodySet of every sphere; bridge: BodySet of the coupled bridging spheres (all
     the bridging spheres except those in `exclude(centres) -> mask`, e.g. spheres whose
-    motion is prescribed); beta: β of every sphere; fe_alpha: α per FE dof.
+    motion is prescribed); beta: β of every sphere; de_weight, fe_weight: the weights per
+    sphere and per FE dof that the partners do not carry themselves (β and α for the nodal
+    weighting, 1 for the consistent one), which the coupling and the energy apply.
     """
 
     def __init__(self, spec, exclude=None, fe_partner=None, de_step=None):
         from fenicsx_side.mesh import box_mesh
         from fenicsx_side.model import ElasticModel
-        from orchestrator.assembly import (bridging_spheres, check_time_step, common_time_step,
-                                           make_coupling)
+        from orchestrator.assembly import bridging_spheres, check_time_step, common_time_step
+        from orchestrator.coupling import Coupling
         from orchestrator.bridging import Bridging, HalfSpaceZone
         from orchestrator.timeloop import CoupledStepper
         from yade_side import import_yade
@@ -126,8 +142,10 @@ class CoupledBlock:
             neverDamage=True))
         self.ids = add_spheres(centres, radii, mat)
 
+        consistent = s.weighting == "consistent"
         n = np.round((L - s.fe_lo) / s.element).astype(int)
-        self.fe = ElasticModel(box_mesh(s.fe_lo, L, n), s.young, s.poisson, s.density)
+        self.fe = ElasticModel(box_mesh(s.fe_lo, L, n), s.young, s.poisson, s.density,
+                               weight=self.bridging.alpha if consistent else None)
         de_critical, fe_critical = utils.PWaveTimeStep(), self.fe.critical_dt()
         self.dt = common_time_step(s.dt_safety, de_critical, fe_critical)
         check_time_step(self.dt, de_critical, fe_critical)
@@ -140,18 +158,25 @@ class CoupledBlock:
             if isinstance(engine, yade.wrapper.InteractionLoop):
                 engine.geomDispatcher.functors[0].avoidGranularRatcheting = False
         create_cohesive_links()
+        self.beta = self.bridging.beta(centres)
+        if consistent:
+            weight_spheres(self.ids, self.beta)
+        self.de_weight = np.ones(len(self.ids)) if consistent else self.beta
+        self.fe_weight = (np.ones(self.fe.ndof) if consistent
+                          else np.repeat(self.bridging.alpha(self.fe.nodes), 3))
 
         self.spheres = BodySet(self.ids)
-        self.beta = self.bridging.beta(self.spheres.ref_pos)
-        self.fe_alpha = np.repeat(self.bridging.alpha(self.fe.nodes), 3)
         index = bridging_spheres(self.bridging, self.spheres.ref_pos)
         if exclude is not None:
             index = index[~exclude(self.spheres.ref_pos[index])]
         self.bridge_index = index
         self.bridge = BodySet(self.ids[index])
         fe = self.fe if fe_partner is None else fe_partner(self)
-        self.coupling = make_coupling(fe, self.bridging, self.bridge, self.dt, s.variant,
-                                      s.relaxation, s.rotations)
+        k, h = self.fe.point_operators(self.bridge.ref_pos)
+        self.coupling = Coupling(k, h if s.rotations else None, self.bridge.mass,
+                                 self.bridge.inertia, self.de_weight[index], fe.mass,
+                                 self.fe_weight, fe.fixed, self.dt, variant=s.variant,
+                                 relaxation=s.relaxation, rotations=s.rotations)
         self.stepper = CoupledStepper(self.O.step if de_step is None else de_step(self),
                                       self.bridge, fe, self.coupling)
 
@@ -169,10 +194,34 @@ class CoupledBlock:
         self.spheres.set_velocity(vel, angvel)
 
 
+def weight_spheres(ids, beta):
+    """Make YADE integrate the weighted energy β H_DE of the spheres `ids`: mass and inertia
+    × β, and the cross-section and stiffnesses of every link between two of them × the mean
+    β of the two (CPM's forces are stresses × cross-section: the forces are weighted, the
+    stresses and hence the damage are not). Call once the cohesive links exist; contacts
+    made later are not weighted."""
+    from yade_side import import_yade
+    O = import_yade().Omega()
+    ids = np.asarray(ids, int)
+    index = np.full(ids.max() + 1, -1)
+    index[ids] = np.arange(len(ids))
+    for i in O.interactions:
+        if max(i.id1, i.id2) >= len(index) or min(index[i.id1], index[i.id2]) < 0:
+            continue
+        w = 0.5 * (beta[index[i.id1]] + beta[index[i.id2]])
+        if w < 1.0:
+            p = i.phys
+            p.crossSection, p.kn, p.ks = w * p.crossSection, w * p.kn, w * p.ks
+    for j in np.flatnonzero(np.asarray(beta) < 1.0):
+        state = O.bodies[int(ids[j])].state
+        state.mass, state.inertia = beta[j] * state.mass, beta[j] * state.inertia
+
+
 class WeightedEnergy:
-    """Energy of the coupled block, H = α H_FE + β H_DE (METHOD.md, eq. 2):
-    α-weighted FE kinetic and strain energy, β-weighted sphere kinetic energy and CPM link
-    energy (a link weighs the mean β of its two spheres).
+    """Energy of the coupled block, H = α H_FE + β H_DE (METHOD.md, eq. 2): FE kinetic and
+    strain energy and sphere kinetic and CPM link energy, weighted by the block's fe_weight
+    and de_weight (a link weighs the mean of its two spheres'), i.e. by α and β for the nodal
+    weighting; the consistent one has the weights inside the partners' masses and stiffnesses.
 
     Kinetic energies use ½ m v(t−Δt/2)·v(t+Δt/2) with the strain/link energies at t: for a
     linear system this is the quantity that the leap-frog conserves exactly, so what remains
@@ -187,7 +236,7 @@ class WeightedEnergy:
         index = np.full(ids.max() + 1, -1)
         index[ids] = np.arange(len(ids))
         links = list(block.O.interactions)
-        weights = np.array([0.5 * (block.beta[index[i.id1]] + block.beta[index[i.id2]])
+        weights = np.array([0.5 * (block.de_weight[index[i.id1]] + block.de_weight[index[i.id2]])
                             for i in links])
         # Σ w U = w₀ U_total + Σ (w − w₀) U over the links whose weight differs from the most
         # common one (w₀ = 1 away from the bridging band): only those are read each time
@@ -196,15 +245,15 @@ class WeightedEnergy:
         other = np.flatnonzero(weights != self._w0)
         self._links = [links[i] for i in other]
         self._excess = weights[other] - self._w0
-        self._fe_w_mass = block.fe_alpha * block.fe.mass
+        self._fe_w_mass = block.fe_weight * block.fe.mass
         s = block.spheres
-        self._de_w_mass, self._de_w_inertia = block.beta * s.mass, block.beta * s.inertia
+        self._de_w_mass, self._de_w_inertia = block.de_weight * s.mass, block.de_weight * s.inertia
 
     def before(self):
         s = self.b.spheres
         s.read()
         self._prev = (self.b.fe.v.copy(), s.vel.copy(), s.angvel.copy(),
-                      self.b.fe.strain_energy(self.b.fe_alpha))
+                      self.b.fe.strain_energy(self.b.fe_weight))
 
     def after(self):
         fe, s = self.b.fe, self.b.spheres

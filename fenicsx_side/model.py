@@ -57,7 +57,7 @@ class ElasticModel:
     external nodal force; t; comm; global_dofs (ndof,) and ndof_global.
     """
 
-    def __init__(self, msh, E, nu, rho, dirichlet=(), quadrature_degree=2):
+    def __init__(self, msh, E, nu, rho, dirichlet=(), quadrature_degree=2, weight=None):
         if msh.geometry.cmap.degree != 1:
             raise ValueError(f"need an affine/multilinear mesh geometry, got degree "
                              f"{msh.geometry.cmap.degree}")
@@ -86,13 +86,16 @@ class ElasticModel:
         self.cell_nodes = self.V.dofmap.list.array.reshape(-1, self.basis.dim)[:n_cells]
 
         u, w = ufl.TrialFunction(self.V), ufl.TestFunction(self.V)
-        stiffness = fem.form(ufl.inner(self._sigma(u), _eps(w)) * self.dx)
+        # weight(x) (points (n, 3) -> (n,), > 0): the model of the weighted energy α H_FE, with
+        # K = ∫ α ε:C:ε and m = ∫ α ρ N (symmetric: the bridging weights stay conservative)
+        a = 1.0 if weight is None else self._interpolated(weight)
+        stiffness = fem.form(a * ufl.inner(self._sigma(u), _eps(w)) * self.dx)
         self._K_petsc = petsc.assemble_matrix(stiffness)
         self._K_petsc.assemble()
         indptr, indices, data = self._K_petsc.getValuesCSR()
         self.K = sp.csr_matrix((data, indices, indptr), shape=(self.ndof, self.ndof_global))
         ones = fem.Constant(msh, PETSc.ScalarType((1.0, 1.0, 1.0)))
-        mass = petsc.assemble_vector(fem.form(rho * ufl.inner(ones, w) * self.dx))
+        mass = petsc.assemble_vector(fem.form(a * rho * ufl.inner(ones, w) * self.dx))
         mass.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self.mass = mass.array.copy()
         bad = np.flatnonzero(~(self.mass > 0))
@@ -319,6 +322,13 @@ class ElasticModel:
         inverse_volume.array[rows] = np.repeat(1.0 / volume[Q.dofmap.list.array[:n_cells]], 9)
         A.diagonalScale(L=inverse_volume)
         return A, rows
+
+    def _interpolated(self, weight):
+        f = fem.Function(fem.FunctionSpace(self.msh, ("Lagrange", 1)))
+        f.interpolate(lambda x: weight(x.T))
+        if not np.all(f.x.array > 0):
+            raise ValueError(f"FE weight must be > 0 at every node, got min {f.x.array.min()!r}")
+        return f
 
     def _sigma(self, w):
         e = _eps(w)

@@ -7,8 +7,11 @@ from cases.block3d import BlockSpec, CoupledBlock, WeightedEnergy
 
 # half-space bridging (the paper's arrangement): DE zone x < 0.048, 2 bridging layers of 12 mm
 HALF_SPACE = dict(size=(0.084, 0.048, 0.048), de_length=0.048)
-# full overlap with uniform weights: the arrangement with an exact energy
+# full overlap with uniform weights α = β = ½: the paper's nodal weighting is then conservative
 OVERLAP = dict(size=(0.072, 0.048, 0.048), uniform_weight=0.5)
+# the arrangements in which the coupled system has an exact energy
+CONSERVATIVE = {"uniform overlap, nodal weights": OVERLAP,
+                "half-space, consistent weights": dict(HALF_SPACE, weighting="consistent")}
 EPS = np.finfo(float).eps
 V0 = 0.01  # m/s, velocity amplitude of the free vibrations
 
@@ -49,11 +52,13 @@ def nonlinearity_bound(spec):
 STEPS = 400  # ≈ 6 periods of the block's first longitudinal mode (2 L / c ≈ 40 µs, Δt ≈ 0.6 µs)
 
 
-def test_full_lagrange_conserves_the_energy_of_a_uniform_overlap():
-    """α = β = ½ everywhere: the coupled system is Hamiltonian, central differences with
-    exactly enforced linear constraints conserve its leap-frog invariant, so the only error
-    left is the links' geometric nonlinearity (measured: 1e-7)."""
-    block = CoupledBlock(BlockSpec(**OVERLAP))
+@pytest.mark.parametrize("arrangement", CONSERVATIVE)
+def test_full_lagrange_conserves_the_energy(arrangement):
+    """The coupled system is Hamiltonian (uniform weights, or weights inside the partners'
+    masses and stiffnesses): central differences with exactly enforced linear constraints
+    conserve its leap-frog invariant, so the only error left is the links' geometric
+    nonlinearity (measured: 4e-8 and 8e-8); the constraints hold to round-off every step."""
+    block = CoupledBlock(BlockSpec(**CONSERVATIVE[arrangement]))
     assert STEPS * block.dt > 5 * 2 * block.spec.size[0] / np.sqrt(block.spec.young / block.spec.density)
     e, residual = energy_history(block, STEPS)
     assert np.abs(e / e[0] - 1).max() < nonlinearity_bound(block.spec)
@@ -61,18 +66,15 @@ def test_full_lagrange_conserves_the_energy_of_a_uniform_overlap():
 
 
 @pytest.mark.parametrize("variant,relaxation", [("diagonal", 1.0), ("full", 35.0), ("diagonal", 35.0)])
-def test_diagonal_and_relaxed_variants_create_no_energy_in_a_uniform_overlap(variant, relaxation):
-    block = CoupledBlock(BlockSpec(variant=variant, relaxation=relaxation, **OVERLAP))
+def test_diagonal_and_relaxed_variants_create_no_energy(variant, relaxation):
+    """Half-space bridging, consistent weights: what these variants leave of the constraint
+    can only dissipate (measured over 1,500 steps: 6 % with r = 1, 82 % with r = 35)."""
+    block = CoupledBlock(BlockSpec(variant=variant, relaxation=relaxation,
+                                   **CONSERVATIVE["half-space, consistent weights"]))
     e, _ = energy_history(block, STEPS)
     assert np.all(np.isfinite(e))
     assert e.max() <= e[0] * (1 + nonlinearity_bound(block.spec)), \
         f"energy grew by {e.max() / e[0] - 1:.3e}"
-
-
-def test_full_lagrange_holds_the_constraints_to_round_off_in_a_half_space_bridging():
-    block = CoupledBlock(BlockSpec(**HALF_SPACE))
-    _, residual = energy_history(block, 200)
-    assert residual < 1e-12
 
 
 @pytest.mark.slow
@@ -119,3 +121,33 @@ def test_rigid_motion_of_spheres_and_fe_needs_no_multipliers(rotation):
     # rotations move only through corrections, each at most a gap over a lever arm R
     assert np.allclose(block.bridge.rotation, t * w, rtol=0,
                        atol=steps * bound / block.spec.radius + 64 * EPS * np.linalg.norm(w) * t)
+
+
+@pytest.mark.slow
+def test_block3d_command_writes_the_table_and_plot(tmp_path):
+    from orchestrator.cli import main
+    out = tmp_path / "check"
+    assert main(["block3d", "--ramp-steps", "20", "--hold-steps", "5", "--out", str(out)]) == 0
+    assert (out / "table.md").read_text().count("| full, r = 1 |") == 2
+    assert (out / "block3d.png").stat().st_size > 0
+    assert main(["block3d", "--out", str(out)]) == 2  # never overwritten without --force
+    assert main(["block3d", "--gamma", "-1", "--out", str(tmp_path / "bad")]) == 2
+
+
+def test_weighted_fe_model_is_the_model_of_the_weighted_energy():
+    """ElasticModel(weight=α): K = ∫ α ε:C:ε and m = ∫ α ρ N. A uniform weight c scales
+    both by c; a linear α gives the total mass ρ ∫ α dV = ρ V α(centre); rigid motions still
+    cost no energy."""
+    from fenicsx_side.mesh import box_mesh
+    from fenicsx_side.model import ElasticModel
+    msh = box_mesh((0, 0, 0), (1.0, 0.5, 0.5), (4, 2, 2))
+    plain = ElasticModel(msh, 30e9, 0.2, 2400.0)
+    uniform = ElasticModel(msh, 30e9, 0.2, 2400.0, weight=lambda x: np.full(len(x), 0.3))
+    assert np.allclose(uniform.mass, 0.3 * plain.mass, rtol=1e-14)
+    assert abs(uniform.K - 0.3 * plain.K).max() <= 1e-13 * abs(plain.K).max()
+    ramp = ElasticModel(msh, 30e9, 0.2, 2400.0, weight=lambda x: 0.2 + 0.6 * x[:, 0])
+    assert ramp.mass.sum() / 3 == pytest.approx(2400.0 * 0.25 * (0.2 + 0.6 * 0.5), rel=1e-13)
+    rigid = (np.array([1.0, -2.0, 0.5]) + np.cross([0.3, -0.1, 0.2], ramp.nodes)).ravel()
+    assert np.abs(ramp.K @ rigid).max() <= 1e-12 * abs(ramp.K).max() * np.abs(rigid).max()
+    with pytest.raises(ValueError, match="weight"):
+        ElasticModel(msh, 30e9, 0.2, 2400.0, weight=lambda x: x[:, 0] - 0.5)
