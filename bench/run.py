@@ -39,7 +39,8 @@ def worker(task, threads=1):
         raise RuntimeError(f"bench worker for {label} failed (exit {proc.returncode}):\n"
                            f"{proc.stderr[-3000:]}")
     result = json.loads(proc.stdout.strip().splitlines()[-1])
-    print(f"bench: {label}: {1e3 * result['timing']['median_s']:.2f} ms/step, "
+    print(f"bench: {label}: {1e3 * result['timing']['median_s']:.2f} ms/step "
+          f"({result['timing']['clock']}), "
           f"{result['peak_rss_bytes'] / 1e9:.2f} GB, {time.perf_counter() - t0:.0f} s",
           flush=True)
     return result
@@ -63,7 +64,7 @@ def measure(plan):
     for threads in THREADS:
         result = raw["scales"][scale]["full"] if threads == 1 else worker(
             {"scale": scale, "model": "full", "warmup": warmup, "steps": steps // 2}, threads)
-        raw["threads"][str(threads)] = {"scale": scale, "s_per_step": result["timing"]["median_s"],
+        raw["threads"][str(threads)] = {"scale": scale, "s_per_step": result["timing"]["wall_median_s"],
                                         "n_spheres": result["n_spheres"]}
     return raw
 

@@ -32,7 +32,8 @@ class StateMemory:
         self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
 
     def read(self, out):
-        np.take(self._view, self._index, out=out)
+        # indices are in range by construction; mode="raise" would buffer `out` (2x slower)
+        np.take(self._view, self._index, out=out, mode="clip")
 
     def write(self, values):
         self._view[self._index] = values
