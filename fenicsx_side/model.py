@@ -276,6 +276,9 @@ class ElasticModel:
     def _map(self, X, xc):
         """Shape function values N (n, nv), reference gradients dN (3, n, nv) and Jacobian
         J (n, 3, 3), J[p, a, d] = ∂x_a/∂X_d, at reference points X of cells with nodes xc."""
+        if len(X) == 0:  # basix asserts on an empty point set
+            nv = self.cell_nodes.shape[1]
+            return np.empty((0, nv)), np.empty((3, 0, nv)), np.empty((0, 3, 3))
         tab = self.basis.tabulate(1, X)[:, :, :, 0]
         return tab[0], tab[1:], np.einsum("dpi,pia->pad", tab[1:], xc)
 

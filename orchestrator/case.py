@@ -188,13 +188,6 @@ class CaseModel:
         return ids, energy
 
     def _check_located(self, points, problems):
-        lo, hi = self.fe.nodes.min(axis=0), self.fe.nodes.max(axis=0)
-        if not np.all((points >= lo) & (points <= hi), axis=1).any():
-            # (the FE partner's locate() aborts the process when no point is in any cell)
-            problems.append(f"coupling: none of the {len(points)} bridging spheres lies in the "
-                            f"FE mesh's bounding box {np.round(lo, 9).tolist()}–"
-                            f"{np.round(hi, 9).tolist()}")
-            return
         try:
             self.fe.locate(points)
         except ValueError as e:       # it names the first sphere outside and counts them
