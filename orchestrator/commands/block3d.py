@@ -12,6 +12,11 @@ def configure(p):
     p.add_argument("--hold-steps", type=int, default=400,
                    help="steps held at full load, over which the answer is averaged (default 400)")
     p.add_argument("--layers", type=int, default=2, help="bridging layers (default 2)")
+    p.add_argument("--radius", type=float, default=0.003,
+                   help="sphere radius in m (default 0.003: the block is 20 radii wide)")
+    p.add_argument("--weighting", choices=("nodal", "consistent"), default="nodal",
+                   help="bridging weights: the paper's nodal ones (default) or energy-consistent "
+                        "ones (cases/block3d.py)")
     p.add_argument("--out", required=True, help="results folder")
     p.add_argument("--force", action="store_true", help="replace an existing results folder")
 
@@ -20,7 +25,8 @@ def run(args):
     from cases.block3d import BlockSpec, ShearCheck, run_shear_check
     from orchestrator.results import prepare_out, write_atomic, write_json
     check = ShearCheck(gamma=args.gamma, ramp_steps=args.ramp_steps, hold_steps=args.hold_steps)
-    specs = [BlockSpec(variant=v, relaxation=r, rotations=rot, layers=args.layers)
+    specs = [BlockSpec(variant=v, relaxation=r, rotations=rot, layers=args.layers,
+                       weighting=args.weighting, radius=args.radius)
              for v, r in CASES for rot in (True, False)]
     out = prepare_out(args.out, args.force)
     rows, runs = [], []
@@ -39,7 +45,9 @@ def run(args):
               f"rotation {100 * rows[-1]['bridging_rotation']:.1f} %; DE zone: "
               f"{100 * rows[-1]['de_zone_displacement']:.2f} %, "
               f"{100 * rows[-1]['de_zone_rotation']:.1f} %")
-    write_json(out / "check.json", {"check": vars(check), "layers": args.layers, "rows": rows})
+    write_json(out / "check.json", {"check": vars(check), "layers": args.layers,
+                                    "radius": args.radius,
+                                    "weighting": args.weighting, "rows": rows})
     write_atomic(out / "table.md", _table(rows))
     _plot(out / "block3d.png", runs)
     print(f"results in {out}")
