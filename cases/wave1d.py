@@ -49,6 +49,7 @@ class Wave1DSpec:
     ratio: int = 5                   # FE element length / sphere spacing
     element: float = 0.05            # FE element length h (m); section h × h
     dt_safety: float = 0.8           # × the smaller critical step
+    weighting: str = "nodal"         # bridging weights: "nodal" (the paper's) or "consistent"
     lf_amplitude: float = 1e-6       # m
     hf_amplitude: float = 2e-7       # m
 
@@ -68,6 +69,9 @@ class Wave1DSpec:
                 raise ValueError(f"wave1d: {name} must be >= 0, got {getattr(self, name)!r}")
         if self.lf_amplitude + self.hf_amplitude == 0:
             raise ValueError("wave1d: lf_amplitude and hf_amplitude are both 0: no wave")
+        if self.weighting not in ("nodal", "consistent"):
+            raise ValueError(f"wave1d: weighting must be 'nodal' or 'consistent', "
+                             f"got {self.weighting!r}")
         if not 0 < self.dt_safety <= 1:
             raise ValueError(f"wave1d: dt_safety must be in (0, 1], got {self.dt_safety!r}")
         if self.relaxation == "auto":
@@ -156,13 +160,17 @@ def lattice_energy(d0, d1, dt, mass, stiffness, omega_split):
     return float(e[low].sum()), float(e[~low].sum())
 
 
-def weighted_invariant(d0, d1, dt, mass, stiffness, x, points, links, weight):
+def weighted_invariant(d0, d1, dt, mass, stiffness, x, points, links, weight,
+                       point_weight=None):
     """Leap-frog invariant Σ w ½ m v² over `points` (mask) + Σ w ½ k Δd₀ Δd₁ over `links`
     (index i: the link of points i, i+1) of a lattice at positions x along the axis, with
-    the bridging weight w(x) (α or β) at the points and at the links' midpoints."""
+    the bridging weight w(x) (α or β) at the links' midpoints and `point_weight(x)` (default
+    the same) at the points."""
     on_axis = lambda xs: np.column_stack([xs, np.zeros_like(xs), np.zeros_like(xs)])
+    point_weight = weight if point_weight is None else point_weight
     v = (d1[points] - d0[points]) / dt
-    kinetic = np.sum(weight(on_axis(x[points])) * np.broadcast_to(mass, x.shape)[points] * v * v)
+    kinetic = np.sum(point_weight(on_axis(x[points])) * np.broadcast_to(mass, x.shape)[points]
+                     * v * v)
     w_links = weight(on_axis(0.5 * (x[links] + x[links + 1])))
     strain = np.sum(w_links * (d0[links + 1] - d0[links]) * (d1[links + 1] - d1[links]))
     return float(0.5 * kinetic + 0.5 * stiffness * strain)
@@ -189,8 +197,10 @@ class Wave1DResult:
 
 def run(spec):
     """One coupled run of `spec`: energies and the reflected-wave snapshot."""
-    from orchestrator.assembly import bridging_spheres, common_time_step, make_coupling
+    from cases.block3d import weight_spheres
+    from orchestrator.assembly import bridging_spheres, common_time_step
     from orchestrator.bridging import Bridging, HalfSpaceZone
+    from orchestrator.coupling import Coupling
     from orchestrator.timeloop import CoupledStepper
     from yade_side import import_yade
     from yade_side.bulk import BodySet
@@ -202,19 +212,32 @@ def run(spec):
     O = import_yade().Omega()
     reset_scene()
     ids = build_chain((lay.x0_chain, 0, 0), lay.L, lay.n_spheres, E, RHO, lay.area)
-    fe = bar_model(lay.n_fe, lay.h)
-    dt = common_time_step(spec.dt_safety, lay.L / C, fe.critical_dt())
+    bridging = Bridging(HalfSpaceZone((lay.x_b, 0, 0), (-1, 0, 0)), spec.layers, lay.h)
+    consistent = spec.weighting == "consistent"
+    fe = bar_model(lay.n_fe, lay.h, weight=bridging.alpha if consistent else None)
+    x = lay.x0_chain + lay.L * np.arange(lay.n_spheres)
+    beta = bridging.beta(np.column_stack([x, np.zeros((lay.n_spheres, 2))]))
+    de_critical = chain_critical_dt(lay, beta if consistent else np.ones_like(beta))
+    dt = common_time_step(spec.dt_safety, de_critical, fe.critical_dt())
     cpm_engines(dt=dt)
     create_cohesive_links()
+    if consistent:
+        weight_spheres(ids, beta)
     driver = O.bodies[int(ids[-1])]
     driver.state.blockedDOFs = "xyzXYZ"  # moved kinematically: Newton keeps its velocity
 
     chain = BodySet(ids)
     x_chain = chain.ref_pos[:, 0]
-    bridging = Bridging(HalfSpaceZone((lay.x_b, 0, 0), (-1, 0, 0)), spec.layers, lay.h)
-    bridge = BodySet(ids[bridging_spheres(bridging, chain.ref_pos, tol=1e-9 * lay.h)])
-    coupling = make_coupling(fe, bridging, bridge, dt, spec.variant, spec.relaxation,
-                             rotations=False)
+    index = bridging_spheres(bridging, chain.ref_pos, tol=1e-9 * lay.h)
+    bridge = BodySet(ids[index])
+    # the nodal weighting applies β and α in the coupling; the consistent one has them in
+    # the partners' masses and stiffnesses already
+    de_weight = np.ones(len(index)) if consistent else beta[index]
+    fe_weight = np.ones(fe.ndof) if consistent else np.repeat(bridging.alpha(fe.nodes), 3)
+    k, _ = fe.point_operators(bridge.ref_pos)
+    coupling = Coupling(k, None, bridge.mass, bridge.inertia, de_weight, fe.mass, fe_weight,
+                        fe.fixed, dt, variant=spec.variant, relaxation=spec.relaxation,
+                        rotations=False)
     stepper = CoupledStepper(None, bridge, fe, coupling)
 
     n_inc, n_ref = (math.ceil(t / dt) for t in (lay.t_incident, lay.t_reflected))
@@ -251,24 +274,41 @@ def run(spec):
                                  m_fe, k_fe, lay.omega_split)
     # what stays in the overlap, weighted as the bridging Hamiltonian: the points and links
     # that the DE-zone and FE-only energies leave out
+    # (consistent weighting: the bar's masses are α-weighted already)
     x_fe = lay.h * np.arange(n_stations)
+    station_weight = (lambda x: np.ones(len(x))) if consistent else bridging.alpha
     overlap = (weighted_invariant(snaps[n_ref][0], snaps[n_ref + 1][0], dt, m_de, k_de, x_chain,
                                   ~de_zone, np.flatnonzero(~de_zone), bridging.beta)
                + weighted_invariant(snaps[n_ref][1], snaps[n_ref + 1][1], dt,
                                     np.bincount(station, fe.mass[0::3]), k_fe, x_fe, ~fe_only,
-                                    np.arange(lay.n_fe - spec.layers, lay.n_fe), bridging.alpha))
+                                    np.arange(lay.n_fe - spec.layers, lay.n_fe), bridging.alpha,
+                                    station_weight))
     return Wave1DResult(de_energy(n_inc), de_energy(n_ref), transmitted, overlap,
                         stepper.exchange.net, max_gap, dt, n_ref + 1, len(bridge),
                         perf_counter() - start, x_chain[de_zone], snaps[n_ref][0][de_zone],
                         snaps[n_inc][0][de_zone], x_fe, snaps[n_ref][1])
 
 
-def bar_model(n_elements, h):
-    """The FE bar on [0, n h] × [−h/2, h/2]²: hexahedra, one across, ν = 0, y and z held."""
+def bar_model(n_elements, h, weight=None):
+    """The FE bar on [0, n h] × [−h/2, h/2]²: hexahedra, one across, ν = 0, y and z held;
+    `weight(x)`: ElasticModel's energy weight (α of the consistent weighting)."""
     from fenicsx_side.mesh import box_mesh
     from fenicsx_side.model import ElasticModel
     msh = box_mesh((0, -h / 2, -h / 2), (n_elements * h, h / 2, h / 2), (n_elements, 1, 1))
-    return ElasticModel(msh, E, 0.0, RHO, dirichlet=[(lambda x: np.full(x.shape[1], True), (1, 2))])
+    return ElasticModel(msh, E, 0.0, RHO, weight=weight,
+                        dirichlet=[(lambda x: np.full(x.shape[1], True), (1, 2))])
+
+
+def chain_critical_dt(lay, beta):
+    """2/ω_max of the chain whose sphere masses are β ρAL and links k = EA/L × the mean β of
+    their two spheres (weight_spheres; β = 1: the plain chain, L/c up to the end effect)."""
+    from scipy.linalg import eigvalsh_tridiagonal
+    m = beta * RHO * lay.area * lay.L
+    k = 0.5 * (beta[:-1] + beta[1:]) * E * lay.area / lay.L
+    diag = (np.r_[k, 0.0] + np.r_[0.0, k]) / m
+    lam = eigvalsh_tridiagonal(diag, -k / np.sqrt(m[:-1] * m[1:]), select="i",
+                               select_range=(len(m) - 1, len(m) - 1))[0]
+    return 2.0 / math.sqrt(lam)
 
 
 def bar_stations(fe, h):
@@ -348,6 +388,7 @@ STUDY_LAYERS = (1, 2, 3, 4, 5, 6)
 STUDY_RELAXATIONS = tuple(np.round(np.logspace(0, 2, 13), 3))   # 1 … 100, 6 per decade
 AUTO_RATIOS = (2, 3, 4, 5, 6, 7, 8)
 CSV_FIELDS = ("study", "variant", "solver", "relaxation", "layers", "ratio", "dt_safety",
+              "weighting",
               "attenuation_percent", "low_frequency_transmission_change_percent",
               "incident_energy", "reflected_energy", "reflected_low_frequency_energy",
               "reflected_high_frequency_energy", "transmitted_low_frequency_energy",
@@ -355,20 +396,20 @@ CSV_FIELDS = ("study", "variant", "solver", "relaxation", "layers", "ratio", "dt
 
 
 def study_cases(layers=STUDY_LAYERS, relaxations=STUDY_RELAXATIONS, ratios=AUTO_RATIOS,
-                ratio=5, dt_safety=0.8):
+                ratio=5, **options):
     """(study, variant, spec) of the sweep: the four variants at `ratio` over n_b and r, and
-    the automatic r (both solvers) at n_b = 3 for every ratio."""
+    the automatic r (both solvers) at n_b = 3 for every ratio. `options`: other Wave1DSpec
+    fields (dt_safety, weighting)."""
     for nb in layers:
         for solver in ("full", "diagonal"):
-            yield "variants", solver, Wave1DSpec(solver, 1.0, nb, ratio, dt_safety=dt_safety)
+            yield "variants", solver, Wave1DSpec(solver, 1.0, nb, ratio, **options)
             for r in relaxations:
                 if r > 1:
-                    yield "variants", f"{solver}+relaxation", Wave1DSpec(
-                        solver, r, nb, ratio, dt_safety=dt_safety)
+                    yield "variants", f"{solver}+relaxation", Wave1DSpec(solver, r, nb, ratio,
+                                                                          **options)
     for q in ratios:
         for solver in ("full", "diagonal"):
-            yield "auto", f"{solver}+relaxation", Wave1DSpec(solver, "auto", 3, q,
-                                                              dt_safety=dt_safety)
+            yield "auto", f"{solver}+relaxation", Wave1DSpec(solver, "auto", 3, q, **options)
 
 
 def run_study(out, cases, quiet=False):
@@ -390,6 +431,7 @@ def run_study(out, cases, quiet=False):
             rows.append({"study": study, "variant": variant, "solver": spec.variant,
                          "relaxation": spec.relaxation, "layers": spec.layers,
                          "ratio": spec.ratio, "dt_safety": spec.dt_safety,
+                         "weighting": spec.weighting,
                          **{k: s[k] for k in CSV_FIELDS if k in s}})
             if spec.layers == 3 and spec.ratio == 5:
                 shapes[(variant, spec.relaxation)] = res

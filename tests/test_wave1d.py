@@ -180,11 +180,38 @@ def test_relaxed_variants_reflect_less_and_dissipate():
     assert sum(res.incident) == pytest.approx(sum(ref.incident), rel=1e-12)
 
 
+def test_chain_critical_step_is_the_free_chains():
+    """Uniform weights: a free chain of n equal masses has ω_max = 2 (c/L) cos(π/2n)."""
+    lay = Layout(Wave1DSpec(ratio=4, layers=1))
+    n = lay.n_spheres
+    dt = wave1d.chain_critical_dt(lay, np.ones(n))
+    assert dt == pytest.approx(lay.L / (C * math.cos(math.pi / (2 * n))), rel=1e-12)
+    # lighter spheres with stiffer links (the floor β = 0.01 next to a larger β) are faster
+    beta = np.ones(n)
+    beta[:3] = (0.01, 0.2, 0.4)
+    assert wave1d.chain_critical_dt(lay, beta) < dt
+
+
+def test_consistent_weights_conserve_and_relaxation_only_dissipates():
+    """With α, β inside the partners' masses and stiffnesses the coupled system is
+    Hamiltonian: full Lagrange (r = 1) conserves the energy up to the packets' truncated
+    tails (e^-16 in energy) and round-off, bound 1e-5; a relaxed coupling then only removes
+    energy, even from the LF pulse alone (with nodal weights it can add some: docs)."""
+    ref = wave1d.run(Wave1DSpec(variant="full", relaxation=1.0, layers=2, ratio=4,
+                                weighting="consistent"))
+    out = sum(ref.reflected) + sum(ref.transmitted) + ref.overlap
+    assert out == pytest.approx(sum(ref.incident), rel=1e-5)
+    lf = wave1d.run(Wave1DSpec(variant="diagonal", relaxation=3.0, layers=2, ratio=4,
+                               weighting="consistent", hf_amplitude=0.0))
+    out = sum(lf.reflected) + sum(lf.transmitted) + lf.overlap
+    assert out <= sum(lf.incident) * (1 + 1e-5)
+
+
 @pytest.mark.parametrize("kw,match", [
     (dict(variant="penalty"), "variant"), (dict(relaxation=0.5), "relaxation"),
     (dict(relaxation="fast"), "relaxation"), (dict(layers=0), "layers"),
     (dict(ratio=2.5), "ratio"), (dict(ratio=1), "ratio"), (dict(dt_safety=1.5), "dt_safety"),
-    (dict(lf_amplitude=0.0, hf_amplitude=0.0), "no wave")])
+    (dict(lf_amplitude=0.0, hf_amplitude=0.0), "no wave"), (dict(weighting="mean"), "weighting")])
 def test_bad_parameters_are_named(kw, match):
     with pytest.raises(ValueError, match=match):
         Wave1DSpec(**kw)

@@ -23,6 +23,9 @@ def configure(p):
                    help="FE element length / sphere spacing (default 5)")
     p.add_argument("--dt-safety", type=float, default=0.8,
                    help="time step / the smaller critical step (default 0.8)")
+    p.add_argument("--weighting", choices=("nodal", "consistent"), default="nodal",
+                   help="bridging weights: the paper's nodal ones (default) or energy-consistent "
+                        "(α, β inside the partners' masses and stiffnesses)")
     p.add_argument("--out", required=True, help="results folder")
     p.add_argument("--force", action="store_true", help="replace an existing results folder")
 
@@ -31,7 +34,8 @@ def run(args):
     from cases import wave1d
     from orchestrator.results import prepare_out, write_json
     spec = wave1d.Wave1DSpec(variant=args.variant, relaxation=args.relaxation,
-                             layers=args.layers, ratio=args.ratio, dt_safety=args.dt_safety)
+                             layers=args.layers, ratio=args.ratio, dt_safety=args.dt_safety,
+                             weighting=args.weighting)
     out = prepare_out(args.out, args.force)
     reference = wave1d.run(spec.reference())
     result = reference if spec == spec.reference() else wave1d.run(spec)

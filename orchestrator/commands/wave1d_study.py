@@ -11,6 +11,8 @@ def configure(p):
                    help="a coarse sweep (n_b 1, 3; 5 values of r; ratios 2, 5, 8) for a check")
     p.add_argument("--dt-safety", type=float, default=0.8,
                    help="time step / the smaller critical step (default 0.8; the slab uses 0.3)")
+    p.add_argument("--weighting", choices=("nodal", "consistent"), default="nodal",
+                   help="bridging weights: the paper's nodal ones (default) or energy-consistent")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -18,11 +20,12 @@ def run(args):
     import numpy as np
     from cases import wave1d
     from orchestrator.results import prepare_out
+    options = dict(dt_safety=args.dt_safety, weighting=args.weighting)
     if args.quick:
         cases = wave1d.study_cases(layers=(1, 3), relaxations=tuple(np.logspace(0, 2, 5)),
-                                   ratios=(2, 5, 8), dt_safety=args.dt_safety)
+                                   ratios=(2, 5, 8), **options)
     else:
-        cases = wave1d.study_cases(dt_safety=args.dt_safety)
+        cases = wave1d.study_cases(**options)
     out = prepare_out(args.out, args.force)
     rows = wave1d.run_study(out, cases, quiet=args.quiet)
     print(wave1d.markdown_table(rows), end="")
