@@ -1,9 +1,11 @@
 """XDMF time series of the FE model: displacement, velocity, stress (ParaView, meshio).
 
 One temporal collection holds every field of a step (dolfinx's own XDMFFile writes one
-collection per function, which meshio's TimeSeriesReader cannot read, and meshio's writer puts
-its .h5 in the working directory). The .h5 and .xdmf files are written under temporary names
-and renamed on close, .h5 first: a reader never sees a half-written series.
+collection per function, which meshio's TimeSeriesReader cannot read). The mesh and each frame
+go to their own HDF5 file in a folder beside the .xdmf index (`fe.xdmf`, `fe/mesh.h5`,
+`fe/step000000.h5`, ...); every file is written under a temporary name and renamed, the index
+last, after each frame. A reader, or a run killed at any moment, only ever sees complete
+frames, and a resumed run carries on from a given frame.
 """
 import os
 import xml.etree.ElementTree as ET
@@ -21,22 +23,21 @@ _MESH_XPOINTER = ("xpointer(/Xdmf/Domain/Grid[@GridType='Uniform'][1]"
 
 
 class XdmfSeries:
-    """Time series of `model` (an ElasticModel) in `path` (.xdmf) and its sibling .h5.
+    """Time series of `model` (an ElasticModel) in `path` (.xdmf) and the folder beside it.
 
     Point fields: displacement, velocity (the half-step velocity v(t - dt/2)); cell fields:
     stress (cell-average tensor, 9 components), von_mises, max_principal. write() takes extra
     fields as point_data / cell_data dicts of arrays with one row per node / cell.
+    `frames`: keep that many frames of an existing series (a resumed run) and write after them.
     """
 
-    def __init__(self, path, model):
+    def __init__(self, path, model, frames=0):
         self.path = Path(path)
         if self.path.suffix != ".xdmf":
             raise ValueError(f"XDMF series path must end in .xdmf, got {str(self.path)!r}")
         self.model = model
-        self.h5_path = self.path.with_suffix(".h5")
-        self._h5_part = self.h5_path.with_name(f".{self.h5_path.name}.part")
-        self._h5 = h5py.File(self._h5_part, "w")
-        self._steps = 0
+        self.folder = self.path.with_suffix("")
+        self.folder.mkdir(parents=True, exist_ok=True)
         self._xml = ET.Element("Xdmf", {"Version": "3.0",
                                         "xmlns:xi": "http://www.w3.org/2001/XInclude"})
         domain = ET.SubElement(self._xml, "Domain")
@@ -47,11 +48,14 @@ class XdmfSeries:
         cells = model.cell_nodes[:, np.argsort(cpp.io.perm_vtk(cell_type, nv))]
         topology = ET.SubElement(grid, "Topology", TopologyType=name,
                                  NumberOfElements=str(len(cells)), NodesPerElement=str(nv))
-        self._data_item(topology, "mesh/topology", cells.astype(np.int64))
         geometry = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
-        self._data_item(geometry, "mesh/geometry", model.nodes)
+        self._write_h5("mesh.h5", {"topology": (topology, cells.astype(np.int64)),
+                                   "geometry": (geometry, model.nodes)})
         self._series = ET.SubElement(domain, "Grid", Name="fe", GridType="Collection",
                                      CollectionType="Temporal")
+        self._steps = 0
+        if frames:
+            self._keep(frames)
 
     def write(self, t, point_data=None, cell_data=None):
         """Append the model's current state as time t."""
@@ -61,32 +65,16 @@ class XdmfSeries:
                   **(point_data or {})}
         cells = {"stress": stress.tensor.reshape(-1, 9), "von_mises": stress.von_mises,
                  "max_principal": stress.max_principal, **(cell_data or {})}
-        fields = [(center, name, _rows(name, values, rows))
+        fields = {name: (center, _rows(name, values, rows))
                   for center, data, rows in (("Node", points, len(m.nodes)),
                                              ("Cell", cells, len(m.cell_nodes)))
-                  for name, values in data.items()]
-        grid = ET.SubElement(self._series, "Grid", Name=f"step{self._steps}", GridType="Uniform")
-        ET.SubElement(grid, "xi:include", xpointer=_MESH_XPOINTER)
-        ET.SubElement(grid, "Time", Value=repr(float(t)))
-        for center, name, values in fields:
-            attribute = ET.SubElement(grid, "Attribute", Name=name, Center=center,
-                                      AttributeType=_ATTRIBUTE_TYPE[values.shape[1]])
-            self._data_item(attribute, f"step{self._steps}/{name}", values)
-        self._h5.flush()
-        self._steps += 1
+                  for name, values in data.items()}
+        self._frame(t, fields)
+        self._write_index()
 
     def close(self):
-        """Finish both files and move them to their final names (also after an error in a
-        `with` block: the steps written so far are complete)."""
-        if self._h5 is None:
-            return
-        self._h5.close()
-        self._h5 = None
-        os.replace(self._h5_part, self.h5_path)
-        xml_part = self.path.with_name(f".{self.path.name}.part")
-        ET.indent(self._xml)
-        ET.ElementTree(self._xml).write(xml_part, xml_declaration=True, encoding="utf-8")
-        os.replace(xml_part, self.path)
+        """Nothing left to finish (the index is complete after every frame); kept so that a
+        series can be used as a context manager."""
 
     def __enter__(self):
         return self
@@ -94,13 +82,53 @@ class XdmfSeries:
     def __exit__(self, *_):
         self.close()
 
-    def _data_item(self, parent, name, values):
-        self._h5.create_dataset(name, data=values)
-        is_int = np.issubdtype(values.dtype, np.integer)
-        item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, values.shape)),
-                             DataType="Int" if is_int else "Float",
-                             Precision=str(values.dtype.itemsize), Format="HDF")
-        item.text = f"{self.h5_path.name}:/{name}"
+    def _frame(self, t, fields, written=False):
+        grid = ET.SubElement(self._series, "Grid", Name=f"step{self._steps}", GridType="Uniform")
+        ET.SubElement(grid, "xi:include", xpointer=_MESH_XPOINTER)
+        ET.SubElement(grid, "Time", Value=repr(float(t)))
+        items = {}
+        for name, (center, values) in fields.items():
+            attribute = ET.SubElement(grid, "Attribute", Name=name, Center=center,
+                                      AttributeType=_ATTRIBUTE_TYPE[values.shape[1]])
+            items[name] = (attribute, values)
+        self._write_h5(f"step{self._steps:06d}.h5", items, {"time": float(t)}, written)
+        self._steps += 1
+
+    def _keep(self, frames):
+        """Index the first `frames` frames already on disk (their times are in the files)."""
+        for k in range(frames):
+            path = self.folder / f"step{k:06d}.h5"
+            if not path.is_file():
+                raise ValueError(f"cannot resume the FE series: {path} is missing")
+            with h5py.File(path, "r") as f:
+                t = float(f.attrs["time"])
+                fields = {name: (f[name].attrs["center"], f[name][()]) for name in f}
+            self._frame(t, fields, written=True)
+
+    def _write_h5(self, file_name, items, attrs=None, written=False):
+        """DataItems under each parent for `items` {name: (parent, values)}, the values (and
+        the file attributes `attrs`) in folder/file_name, unless already written there."""
+        path = self.folder / file_name
+        part = path.with_name(f".{file_name}.part")
+        if not written:
+            with h5py.File(part, "w") as f:
+                f.attrs.update(attrs or {})
+                for name, (parent, values) in items.items():
+                    f.create_dataset(name, data=values)
+                    f[name].attrs["center"] = parent.get("Center", "")
+            os.replace(part, path)
+        for name, (parent, values) in items.items():
+            item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, values.shape)),
+                                 DataType="Int" if np.issubdtype(values.dtype, np.integer)
+                                 else "Float", Precision=str(values.dtype.itemsize),
+                                 Format="HDF")
+            item.text = f"{self.folder.name}/{file_name}:/{name}"
+
+    def _write_index(self):
+        part = self.path.with_name(f".{self.path.name}.part")
+        ET.indent(self._xml)
+        ET.ElementTree(self._xml).write(part, xml_declaration=True, encoding="utf-8")
+        os.replace(part, self.path)
 
 
 def _rows(name, values, rows):

@@ -26,9 +26,9 @@ def stretched_block():
     return ids
 
 
-def run(steps, ids):
+def run(steps, ids, bodies=None):
     O = import_yade().Omega()
-    bodies = BodySet(ids)
+    bodies = bodies or BodySet(ids)
     out = []
     for _ in range(steps):
         O.step()
@@ -63,9 +63,11 @@ def test_damage_history_is_restored_bit_for_bit(saved):
 
 
 def test_a_restored_run_continues_identically(saved):
+    """...also read through a BodySet made before loading (it is pointed at the new bodies)."""
     folder, ids, _, after = saved
+    bodies = BodySet(ids)
     load_scene(folder)
-    again = run(STEPS, ids)
+    again = run(STEPS, ids, bodies)
     assert np.array_equal(again.view(np.int64), after.view(np.int64))
 
 

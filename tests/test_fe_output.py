@@ -20,8 +20,23 @@ def test_series_reads_back_with_meshio(tmp_path, cell):
             alpha = rng.uniform(size=len(m.nodes))
             series.write(t, point_data={"alpha": alpha})
             written.append((t, m.u.copy(), m.v.copy(), m.stress(), alpha))
-        assert not path.exists()  # only complete series appear
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["fe.h5", "fe.xdmf"]
+            with meshio.xdmf.TimeSeriesReader(path) as reader:  # complete after every frame
+                reader.read_points_cells()
+                assert reader.num_steps == len(written)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fe", "fe.xdmf"]
+    assert sorted(p.name for p in (tmp_path / "fe").iterdir()) == [
+        "mesh.h5", "step000000.h5", "step000001.h5", "step000002.h5"]
+    check_series(path, m, cell, written)
+    # a resumed run keeps the first two frames and writes after them
+    resumed = XdmfSeries(path, m, frames=2)
+    m.u, m.v = written[2][1], written[2][2]
+    resumed.write(written[2][0], point_data={"alpha": written[2][4]})
+    check_series(path, m, cell, written)
+    with pytest.raises(ValueError, match="step000003.h5 is missing"):
+        XdmfSeries(path, m, frames=4)
+
+
+def check_series(path, m, cell, written):
 
     with meshio.xdmf.TimeSeriesReader(path) as reader:
         points, cells = reader.read_points_cells()

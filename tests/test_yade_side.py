@@ -212,3 +212,18 @@ def test_sphere_series_reads_back(tmp_path):
         assert np.array_equal(mesh.point_data["damage"], dmg)
     with pytest.raises(ValueError, match="damage"):
         series.write(0.0, c, r, damage=dmg[:3])
+
+
+def test_a_resumed_sphere_series_keeps_its_first_frames(tmp_path):
+    from yade_side.output import SphereSeries, read_series
+    c, r = np.zeros((2, 3)), np.ones(2)
+    series = SphereSeries(tmp_path / "spheres.pvd")
+    for t in (0.0, 1.0, 2.0):
+        series.write(t, c + t, r)
+    resumed = SphereSeries(tmp_path / "spheres.pvd", frames=2)
+    resumed.write(5.0, c + 5.0, r)
+    back = read_series(tmp_path / "spheres.pvd")
+    assert [t for t, _ in back] == [0.0, 1.0, 5.0]
+    assert np.array_equal(back[2][1].points, c + 5.0)
+    with pytest.raises(ValueError, match="it has 3 frames, 4 expected"):
+        SphereSeries(tmp_path / "spheres.pvd", frames=4)

@@ -6,6 +6,7 @@ ori as x, y, z, w): by a numpy gather/scatter in YADE's memory when its layout i
 works in a plain serial scene. No per-body Python in the time loop either way.
 """
 import array
+import weakref
 
 import numpy as np
 
@@ -13,6 +14,12 @@ from yade_side import import_yade
 from yade_side.state_memory import locate
 
 _POS, _VEL, _ANGVEL, _ORI = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 13)
+_LIVE = weakref.WeakSet()  # every BodySet, to reattach after a scene is loaded
+
+
+def reattach_all():
+    for body_set in list(_LIVE):
+        body_set.reattach()
 
 
 class BodySet:
@@ -32,13 +39,20 @@ class BodySet:
         self.inertia = np.array([b.state.inertia[0] for b in bodies])
         self.radius = np.array([b.shape.radius for b in bodies])
         self.state = np.empty((len(self.ids), 13))
-        self._memory = None
-        if direct:
-            self._memory = locate(self._O.bodies, self._id_list, self._api_get, self._api_put)
+        self._direct = direct
+        self.reattach()
         self.read()
         self.ref_pos = self.state[:, _POS].copy()
         self.rotation = np.zeros((len(self.ids), 3))
         self.rotation_pred = self.rotation.copy()
+        _LIVE.add(self)
+
+    def reattach(self):
+        """Find the bodies' states in YADE's memory again: after O.load() they are new
+        objects, and a view of the old ones would read and write bodies no longer simulated."""
+        self._memory = None
+        if self._direct:
+            self._memory = locate(self._O.bodies, self._id_list, self._api_get, self._api_put)
 
     def __len__(self):
         return len(self.ids)

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from yade_side import import_yade
+from yade_side.bulk import reattach_all
 from yade_side.state_memory import state_address
 
 # CpmPhys members after the serialised base, in declaration order: 7 reals, 4 Vector3r
@@ -92,9 +93,9 @@ def save_scene(folder):
 
 
 def load_scene(folder):
-    """Replace the current scene by the one saved in `folder` and restore its CPM history.
-    Every BodySet made before must be made again (they point at the old bodies). Raises
-    CheckpointError, and the run must not go on, if the files do not match."""
+    """Replace the current scene by the one saved in `folder`, restore its CPM history and
+    point every BodySet at the loaded bodies. Raises CheckpointError, and the run must not go
+    on, if the files do not match."""
     O = import_yade().Omega()
     folder = Path(folder)
     for name in ("scene.yade.gz", "cpm_history.npz"):
@@ -118,3 +119,4 @@ def load_scene(folder):
         if not _same(history_values(link.phys), values):
             raise CheckpointError(f"checkpoint {folder}: CPM history of link "
                                   f"{link.id1}-{link.id2} did not restore exactly")
+    reattach_all()

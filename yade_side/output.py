@@ -14,13 +14,20 @@ import numpy as np
 
 
 class SphereSeries:
-    def __init__(self, path):
+    def __init__(self, path, frames=0):
+        """`frames`: keep that many frames of an existing series (a resumed run)."""
         self.path = Path(path)
         if self.path.suffix != ".pvd":
             raise ValueError(f"sphere series path must end in .pvd, got {str(self.path)!r}")
         self.frames_dir = self.path.with_suffix("")
         self.frames_dir.mkdir(parents=True, exist_ok=True)
         self.frames = []  # (time, relative file name)
+        if frames:
+            kept = _index(self.path)[:frames] if self.path.is_file() else []
+            if len(kept) < frames:
+                raise ValueError(f"cannot resume the sphere series {self.path}: it has "
+                                 f"{len(kept)} frames, {frames} expected")
+            self.frames = kept
 
     def write(self, t, centres, radius, **fields):
         """Append a frame: centres (n, 3), radius (n,), fields of n rows (scalars or vectors)."""
@@ -53,6 +60,10 @@ class SphereSeries:
 def read_series(path):
     """[(time, meshio.Mesh)] of a .pvd written by SphereSeries (for tests and post-processing)."""
     path = Path(path)
-    root = ET.parse(path).getroot()
-    return [(float(d.get("timestep")), meshio.read(path.parent / d.get("file")))
-            for d in root.iter("DataSet")]
+    return [(t, meshio.read(path.parent / name)) for t, name in _index(path)]
+
+
+def _index(path):
+    """[(time, file name relative to the index)] of a .pvd."""
+    return [(float(d.get("timestep")), d.get("file"))
+            for d in ET.parse(path).getroot().iter("DataSet")]
