@@ -130,6 +130,16 @@ def sensor_points(spec, grid):
     }
 
 
+def fe_model(spec, grid):
+    """The coupled model's FE part: the slab less the DE zone, its x = 0 and x = 2.5 faces held
+    in z (simple supports). Collective under MPI: every rank builds it."""
+    from fenicsx_side.mesh import box_mesh_with_hole
+    from fenicsx_side.model import ElasticModel, face
+    msh = box_mesh_with_hole((0, 0, 0), SLAB, grid.n, grid.hole_lo, grid.hole_hi)
+    supports = [(face(0, 0.0), (2,)), (face(0, SLAB[0]), (2,))]
+    return ElasticModel(msh, spec.young, spec.poisson, spec.density, supports)
+
+
 class SlabModel:
     """Builds the YADE scene (and for `coupled` the FE model and the coupling), then steps."""
 
@@ -167,11 +177,8 @@ class SlabModel:
         self.fe = None
         fe_critical = np.inf
         if model == "coupled":
-            from fenicsx_side.mesh import box_mesh_with_hole
-            from fenicsx_side.model import ElasticModel, face
-            msh = box_mesh_with_hole((0, 0, 0), SLAB, grid.n, grid.hole_lo, grid.hole_hi)
-            supports = [(face(0, 0.0), (2,)), (face(0, SLAB[0]), (2,))]
-            self.fe = ElasticModel(msh, spec.young, spec.poisson, spec.density, supports)
+            from fenicsx_side.distributed import on_rank_zero
+            self.fe = on_rank_zero(fe_model(spec, grid))
             fe_critical = self.fe.critical_dt()
         else:
             # simple supports: spheres touching the x = 0 and x = 2.5 faces keep z fixed
@@ -184,7 +191,7 @@ class SlabModel:
         self.dt = common_time_step(spec.dt_safety, de_critical, fe_critical)
         check_time_step(self.dt, de_critical, fe_critical)
         self.critical = {"de": de_critical, "fe": None if self.fe is None else fe_critical}
-        self.law, _ = cpm_engines(dt=self.dt)
+        cpm_engines(dt=self.dt)
         create_cohesive_links()
 
         self.slab = BodySet(self.slab_ids)
@@ -260,7 +267,8 @@ class SlabModel:
         e = self.slab.kinetic_energy() + self.impactor.kinetic_energy()
         if self.fe is not None:
             e += self.fe.kinetic_energy() + self.fe.strain_energy()
-        elastic = self.law.elasticEnergy()
+        from yade_side.scene import cpm_law
+        elastic = cpm_law().elasticEnergy()  # looked up: a loaded checkpoint replaces engines
         return e + elastic if np.isfinite(elastic) else e
 
     def sphere_count(self):

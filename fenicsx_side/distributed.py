@@ -7,6 +7,8 @@ broadcast to the other ranks, which run `serve()` and take part in the same coll
 operation. State vectors are gathered to rank 0 whole (the FE costs little next to YADE here,
 so simplicity wins over sending only the coupled dofs), and corrections are scattered back.
 """
+import atexit
+
 import numpy as np
 from mpi4py import MPI
 
@@ -41,6 +43,9 @@ class RankZeroModel:
             self.nodes = self.nodes.reshape(-1, 3)
             self.fixed = self.fixed.astype(bool)
         self._correction = np.zeros(self.ndof) if self.rank == 0 else None
+        self._stopped = False
+        if self.rank == 0:
+            atexit.register(self.stop)  # however rank 0 ends, the others leave serve()
 
     # --- what rank 0 calls (each is collective) ----------------------------------------------
     def predict(self, dt):
@@ -77,8 +82,10 @@ class RankZeroModel:
         return self._call("stress")
 
     def stop(self):
-        """Release the other ranks from serve()."""
-        self.comm.bcast((_STOP, ()), root=0)
+        """Release the other ranks from serve() (once)."""
+        if not self._stopped:
+            self._stopped = True
+            self.comm.bcast((_STOP, ()), root=0)
 
     # --- the other ranks ---------------------------------------------------------------------
     def serve(self):
@@ -138,6 +145,17 @@ class RankZeroModel:
         s = self.model.stress()
         parts = [self._gather_rows(a) for a in (s.tensor, s.von_mises, s.max_principal)]
         return CellStress(*parts) if self.rank == 0 else None
+
+
+def on_rank_zero(model):
+    """`model` as rank 0 drives it: itself in serial, else a RankZeroModel (collective)."""
+    return model if model.comm.size == 1 else RankZeroModel(model)
+
+
+def serve(model):
+    """Ranks > 0: take part in everything rank 0 asks of the distributed `model` until it
+    stops (`model` built collectively with rank 0's own)."""
+    RankZeroModel(model).serve()
 
 
 def _offsets(counts):

@@ -40,7 +40,7 @@ class CaseModel:
         from yade_side import import_yade
         from yade_side.bulk import BodySet
         from yade_side.damage import LinkDamage
-        from yade_side.user_script import cpm_law, insert_after_newton
+        from yade_side.user_script import insert_after_newton
 
         yade = import_yade()
         self.O = O = yade.Omega()
@@ -90,7 +90,6 @@ class CaseModel:
                                  self.relaxation, cp["rotations"])
         self.stepper = CoupledStepper(O.step, self.bridge, self.fe, coupling)
         insert_after_newton(self.stepper.couple)
-        self.law = cpm_law()
         self.damage = LinkDamage(ids)
         self._links_recorded = O.iter > 0
         if self._links_recorded:
@@ -271,7 +270,9 @@ class CaseModel:
         by both: a blow-up diagnostic, not a balance); CPM's NaN elastic energy is left out."""
         self.spheres.read()
         e = self.spheres.kinetic_energy() + self.fe.kinetic_energy() + self.fe.strain_energy()
-        elastic = self.law.elasticEnergy() if self.law is not None else 0.0
+        from yade_side.scene import cpm_law
+        law = cpm_law()  # looked up each time: a loaded checkpoint replaces the engines
+        elastic = law.elasticEnergy() if law is not None else 0.0
         return e + elastic if np.isfinite(elastic) else e
 
     def sphere_count(self):

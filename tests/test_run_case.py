@@ -31,7 +31,7 @@ def run_dir(tmp_path_factory):
 
 def test_the_results_folder_holds_everything_and_reads_back(run_dir):
     for name in ("case.toml", "summary.json", "run.log", "sensors.csv", "damage.npz",
-                 "spheres.pvd", "fe.xdmf", "fe.h5", "sensors.png", "damage.png"):
+                 "spheres.pvd", "fe.xdmf", "fe/mesh.h5", "sensors.png", "damage.png"):
         assert (run_dir / name).stat().st_size > 0, name
     s = json.loads((run_dir / "summary.json").read_text())
     assert s["steps"] == int(np.ceil(1.2e-4 / s["dt"]))

@@ -50,3 +50,14 @@ def create_cohesive_links():
         if isinstance(engine, yade.wrapper.InteractionLoop):
             for functor in engine.geomDispatcher.functors:
                 functor.interactionDetectionFactor = 1.0
+
+
+def cpm_law():
+    """The scene's Law2_ScGeom_CpmPhys_Cpm (for its elastic energy), or None."""
+    yade = import_yade()
+    for e in yade.Omega().engines:
+        if isinstance(e, yade.wrapper.InteractionLoop):
+            for law in e.lawDispatcher.functors:
+                if isinstance(law, yade.wrapper.Law2_ScGeom_CpmPhys_Cpm):
+                    return law
+    return None

@@ -158,14 +158,3 @@ def insert_after_newton(callback, label="coupling_step"):
     runner = yade.wrapper.PyRunner(command=f"{name}()", iterPeriod=1, initRun=True, label=label)
     O.engines = engines[:i + 1] + [runner] + engines[i + 1:]
     return runner
-
-
-def cpm_law():
-    """The scene's Law2_ScGeom_CpmPhys_Cpm (for its elastic energy), or None."""
-    yade = import_yade()
-    for e in yade.Omega().engines:
-        if isinstance(e, yade.wrapper.InteractionLoop):
-            for law in e.lawDispatcher.functors:
-                if isinstance(law, yade.wrapper.Law2_ScGeom_CpmPhys_Cpm):
-                    return law
-    return None

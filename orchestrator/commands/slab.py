@@ -19,13 +19,23 @@ def configure(p):
 
 
 def run(args):
+    from mpi4py import MPI
     from cases import slab
     from orchestrator.results import prepare_out
-    from yade_side import import_yade
-    import_yade(args.threads)
     spec = slab.SlabSpec(scale=args.scale, steps=args.steps, variant=args.variant,
                          relaxation=args.relaxation, rotations=not args.no_rotations,
                          output_every=args.output_every)
+    comm = MPI.COMM_WORLD
+    if comm.size > 1:
+        # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
+        if args.model != "coupled":
+            raise ValueError(f"--model {args.model} has no FE part: run it without mpirun")
+        if comm.rank > 0:
+            from fenicsx_side.distributed import serve
+            serve(slab.fe_model(spec, slab.slab_grid(spec)))
+            return 0
+    from yade_side import import_yade
+    import_yade(args.threads)
     out = prepare_out(args.out, args.force)
     s = slab.run(spec, args.model, out, quiet=args.quiet)
     print(f"{args.model} slab ({args.scale}): {s['n_spheres']} spheres, {s['n_fe_nodes']} FE "
