@@ -21,7 +21,8 @@ The fit rests on the CPM law being positively homogeneous (checked in tests/test
 - sigmaT and epsCrackOnset × λ (young fixed): the link law becomes σ'(λε) = λσ(ε) (damage
   ω(κ) = 1 − (ε0/κ) exp(−(κ − ε0)/εf) with εf = relDuctility·ε0 is a function of κ/ε0), so fc and
   ft × λ with E unchanged.
-Both are exact only quasi-statically and away from CPM's fixed strains, hence a few iterations.
+The first is exact (with density × μ too the motion is the same); the second only
+quasi-statically: hence a few iterations.
 """
 import math
 import time
@@ -103,8 +104,9 @@ def packed_sample(radius, size, seed=1):
 
 def uniaxial_test(sample, params, mode, loading=Loading(), material=None):
     """One quasi-static uniaxial test, 'compression' or 'tension'. `material` (a CpmMat) replaces
-    the one made from `params` (tests). Returns a dict of arrays (strain, stress, strain_mid,
-    lateral_mid) and the measured E, ν, peak (signed), steps, spheres, time."""
+    the one made from `params` (tests). Returns a dict of arrays sampled every `sample_strain`
+    (strain between the ends, stress, strain_mid and lateral_mid in the middle third) and the
+    measured E, E_ends, ν, peak (signed stress), steps, dt, spheres, seconds."""
     if mode not in ("compression", "tension"):
         raise ValueError(f"mode must be 'compression' or 'tension', got {mode!r}")
     yade = import_yade()
@@ -121,8 +123,11 @@ def uniaxial_test(sample, params, mode, loading=Loading(), material=None):
     pos = np.flatnonzero(x > x.max() - END_DEPTH * R)
     gauge = x[pos].mean() - x[neg].mean()
     pair = x[pos[0]] - x[neg[0]]     # the strainer's own reference length
-    sign, rate = (-1.0, loading.strain_rate) if mode == "compression" else (1.0, loading.tension_rate)
-    law, newton = cpm_engines(dt_safety=loading.dt_safety)
+    if mode == "compression":
+        sign, rate = -1.0, loading.strain_rate
+    else:
+        sign, rate = 1.0, loading.tension_rate
+    _, newton = cpm_engines(dt_safety=loading.dt_safety)
     newton.damping = loading.damping
     strainer = yade.wrapper.UniaxialStrainer(
         axis=0, asymmetry=0, posIds=ids[pos].tolist(), negIds=ids[neg].tolist(),
