@@ -17,7 +17,16 @@ from orchestrator.runner import damage_map, read_sensors
 SLAB = (2.5, 2.0, 0.28)
 # sphere radius per scale; the FE size is a multiple of the diameter (see SlabSpec)
 SCALES = {"small": 0.025, "medium": 0.02, "paper": 0.0118}
-DEFAULT_STEPS = {"small": 800, "medium": 1500, "paper": 300}
+DEFAULT_STEPS = {"small": 1200, "medium": 1500, "paper": 300}
+# FE modulus per scale: the bending modulus of the DE slab it stands for, measured by quasi-static
+# 3-point bending of a 0.3 m wide strip of the slab's packing against the same strip in FE on the
+# scale's grid (docs/slab.md). A few spheres through 0.28 m bend like 17-20 GPa, not the 29 GPa
+# of their uniaxial test: an FE at 31 GPa made the coupled slab twice as stiff as the full one.
+# Not measured at paper scale (12 diameters through the thickness): the concrete's 31 GPa.
+FE_YOUNG = {"small": 17.0e9, "medium": 20.6e9, "paper": 31e9}
+# The DE zone spans the slab's whole width (y) where damage reaches its free edges y = 0, 2
+# (small scale: 40 m/s nearly perforates a slab 5.6 sphere diameters thick; docs/slab.md).
+FULL_WIDTH = {"small": True, "medium": False, "paper": False}
 
 
 @dataclass
@@ -25,6 +34,7 @@ class SlabSpec:
     scale: str = "small"
     radius: float = None             # default: SCALES[scale]
     de_zone: float = 0.6             # target side of the DE zone (m), rounded to the FE grid
+    full_width: bool = None          # DE zone through the whole width; default FULL_WIDTH[scale]
     layers: int = 3                  # bridging layers
     fe_ratio: float = 3.0            # in-plane FE size / sphere diameter
     fe_ratio_thickness: float = 1.5  # FE size through the thickness / sphere diameter
@@ -33,12 +43,14 @@ class SlabSpec:
     variant: str = "diagonal"
     relaxation: float = 35.0
     rotations: bool = True
-    dt_safety: float = 0.3           # × the smaller critical step (CPM under damage: notes)
+    dt_safety: float = 0.15          # × the smaller critical step: at 0.3 the slab's kinetic
+                                     # energy grew 20× within 500 steps of a 40 m/s impact (docs)
     steps: int = None                # default: DEFAULT_STEPS[scale]
     sample_every: int = 5            # sensor histories
     check_every: int = 50            # damage, energy and blow-up check
     output_every: int = 200          # ParaView frames
-    young: float = 31e9              # macroscopic E of the concrete (FE)
+    checkpoint_every: int = 1000     # checkpoints (resume with --resume)
+    young: float = None              # FE modulus (Pa); default FE_YOUNG[scale]
     poisson: float = 0.2
     density: float = 2400.0
     compressive_strength: float = 31e6
@@ -49,6 +61,8 @@ class SlabSpec:
             raise ValueError(f"scale must be one of {tuple(SCALES)}, got {self.scale!r}")
         self.radius = SCALES[self.scale] if self.radius is None else self.radius
         self.steps = DEFAULT_STEPS[self.scale] if self.steps is None else self.steps
+        self.young = FE_YOUNG[self.scale] if self.young is None else self.young
+        self.full_width = FULL_WIDTH[self.scale] if self.full_width is None else self.full_width
         for name in ("radius", "de_zone", "fe_ratio", "fe_ratio_thickness", "impactor_side",
                      "relaxation", "young", "density"):
             if not getattr(self, name) > 0:
@@ -66,6 +80,7 @@ class Grid:
     n: tuple
     hole_lo: np.ndarray
     hole_hi: np.ndarray
+    axes: tuple = (0, 1)  # the axes along which the DE zone is bounded
 
     @property
     def width(self):
@@ -74,13 +89,15 @@ class Grid:
 
 def slab_grid(spec):
     """In-plane size h = 0.5/k m closest to fe_ratio × diameter, so that both 2.5 m and 2 m
-    are whole numbers of cells; DE zone = the central block of cells nearest de_zone."""
+    are whole numbers of cells; DE zone = the central block of cells nearest de_zone (along x
+    only with full_width)."""
     k = max(1, round(0.5 / (spec.fe_ratio * 2 * spec.radius)))
     h = 0.5 / k
     n = [round(SLAB[0] / h), round(SLAB[1] / h),
          max(1, round(SLAB[2] / (spec.fe_ratio_thickness * 2 * spec.radius)))]
     lo, hi = np.zeros(3), np.array(SLAB)
-    for axis in (0, 1):
+    axes = (0,) if spec.full_width else (0, 1)
+    for axis in axes:
         cells = max(1, round(spec.de_zone / h))
         if (n[axis] - cells) % 2:  # centred on the slab
             cells += 1
@@ -90,7 +107,7 @@ def slab_grid(spec):
                              f"layers do not fit in the {n[axis]} cells along axis {axis} with "
                              f"FE beyond them; reduce de_zone or layers, or the sphere radius")
         lo[axis], hi[axis] = start * h, (start + cells) * h
-    return Grid(h, tuple(n), lo, hi)
+    return Grid(h, tuple(n), lo, hi, axes)
 
 
 @dataclass
@@ -107,15 +124,27 @@ def make_packings(spec):
     slab_c, slab_r = sphere_arrays(dense_box_packing((0, 0, 0), SLAB, spec.radius))
     a = spec.impactor_side
     imp_c, imp_r = sphere_arrays(dense_box_packing((0, 0, 0), (a, a, a), spec.radius, seed=2))
-    # centred over the slab; its lowest sphere surfaces 1.1 R above the slab's highest ones,
-    # beyond the cohesive-link reach (1.5 × the sum of radii) of the first step
-    footprint = np.all(np.abs(slab_c[:, :2] - np.array(SLAB[:2]) / 2) < 0.5 * a + 2 * slab_r[:, None],
-                       axis=1)
-    top = np.max((slab_c[:, 2] + slab_r)[footprint])
-    shift = np.array([0.5 * SLAB[0] - 0.5 * a, 0.5 * SLAB[1] - 0.5 * a,
-                      top + 1.1 * spec.radius - np.min(imp_c[:, 2] - imp_r)])
-    return Packings(slab_c, slab_r, packing_fraction(slab_r, np.prod(SLAB)),
-                    imp_c + shift, imp_r)
+    imp_c = imp_c + [0.5 * (SLAB[0] - a), 0.5 * (SLAB[1] - a), -np.min(imp_c[:, 2])]
+    imp_c[:, 2] += _impactor_height(imp_c, imp_r, slab_c, slab_r)
+    return Packings(slab_c, slab_r, packing_fraction(slab_r, np.prod(SLAB)), imp_c, imp_r)
+
+
+def _impactor_height(imp_c, imp_r, slab_c, slab_r, margin=1.05):
+    """Lift of the impactor (centred over the slab, lowest centre at z = 0) that keeps every
+    impactor-slab pair `margin` × beyond the cohesive-link reach of the first step (1.5 × the
+    sum of radii), and no further: contact starts after a travel of about one radius."""
+    from yade_side.scene import INTERACTION_RADIUS
+    reach_max = margin * INTERACTION_RADIUS * 2 * max(imp_r.max(), slab_r.max())
+    lo, hi = imp_c[:, :2].min(axis=0) - reach_max, imp_c[:, :2].max(axis=0) + reach_max
+    near = np.all((slab_c[:, :2] > lo) & (slab_c[:, :2] < hi), axis=1)
+    near &= slab_c[:, 2] > slab_c[near, 2].max() - reach_max
+    low = imp_c[:, 2] < reach_max
+    s_c, i_c = slab_c[near], imp_c[low]
+    reach = margin * INTERACTION_RADIUS * (imp_r[low][:, None] + slab_r[near][None, :])
+    lateral = np.linalg.norm(i_c[:, None, :2] - s_c[None, :, :2], axis=2)
+    rise = np.sqrt(np.maximum(reach**2 - lateral**2, 0.0))   # vertical centre gap needed
+    rise = np.where(lateral < reach, rise + s_c[None, :, 2] - i_c[:, None, 2], -np.inf)
+    return float(rise.max())
 
 
 def sensor_points(spec, grid):
@@ -161,7 +190,8 @@ class SlabModel:
         self.spec, self.model = spec, model
         self.grid = grid = slab_grid(spec)
         packs = make_packings(spec)
-        self.bridging = Bridging(BoxZone(grid.hole_lo, grid.hole_hi), spec.layers, grid.h)
+        self.bridging = Bridging(BoxZone(grid.hole_lo, grid.hole_hi, grid.axes), spec.layers,
+                                 grid.h)
         keep = np.arange(len(packs.slab_radii))
         if model == "coupled":
             keep = np.flatnonzero(self.bridging.zone.depth(packs.slab_centres)
@@ -275,8 +305,9 @@ class SlabModel:
         return len(self.slab_ids) + len(self.impactor_ids)
 
 
-def run(spec, model, out, quiet=False):
-    """Run one model to spec.steps and write its results folder `out` (already prepared)."""
+def run(spec, model, out, quiet=False, resume=False):
+    """Run one model to spec.steps and write its results folder `out` (already prepared), or
+    carry on from its checkpoint (resume)."""
     from orchestrator import runner
     t_build = perf_counter()
     m = SlabModel(spec, model)
@@ -284,10 +315,12 @@ def run(spec, model, out, quiet=False):
     impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
     info = {"model": model, "spec": asdict(spec), "n_slab_spheres": len(m.slab_ids),
             "build_s": build_s, "impact_energy_J": impact_energy}
-    schedule = runner.Schedule(spec.steps, spec.sample_every, spec.check_every, spec.output_every)
+    schedule = runner.Schedule(spec.steps, spec.sample_every, spec.check_every,
+                               spec.output_every, spec.checkpoint_every)
     return runner.run(m, m.slab, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
                       info=info, arrays={"slab_index": m.slab_index},
-                      checks=lambda damage: _post_run_checks(m, damage), quiet=quiet)
+                      checks=lambda damage: _post_run_checks(m, damage), quiet=quiet,
+                      resume=resume)
 
 
 def _post_run_checks(m, damage):

@@ -279,10 +279,11 @@ class CaseModel:
         return len(self.spheres)
 
 
-def run_case(case, out, force=False, quiet=False, threads=None):
+def run_case(case, out, force=False, quiet=False, threads=None, resume=False):
     """Build and run a checked case into the results folder `out`; returns the summary.
     The folder gets `case.toml`: the case as run (defaults filled in, --set applied, paths
-    absolute), which runs again as it is."""
+    absolute), which runs again as it is. resume: carry on from the checkpoint in `out`
+    (which holds that case.toml)."""
     from orchestrator import runner
     from orchestrator.results import prepare_out
     from yade_side import import_yade
@@ -291,15 +292,19 @@ def run_case(case, out, force=False, quiet=False, threads=None):
     if case.kind == "slab":
         from cases import slab
         spec = slab_spec(case)
-        out = prepare_out(out, force)
-        _write_case(case, out)
-        return slab.run(spec, case["slab"]["model"], out, quiet=quiet)
+        if not resume:
+            out = prepare_out(out, force)
+            _write_case(case, out)
+        return slab.run(spec, case["slab"]["model"], out, quiet=quiet, resume=resume)
     if case.kind == "wave1d":
+        if resume:
+            raise ValueError("a wave1d case is short and has no checkpoints: run it again")
         return _run_wave1d(case, out, force)
     model = CaseModel(case)            # raises CaseError before anything runs
     build_s = perf_counter() - t0
-    out = prepare_out(out, force)
-    _write_case(case, out)
+    if not resume:
+        out = prepare_out(out, force)
+        _write_case(case, out)
     d, mat = case.data, case["material"]
     info = {"case": d["case"]["name"], "kind": case.kind, "build_s": build_s,
             "relaxation": model.relaxation, "variant": d["coupling"]["variant"],
@@ -307,13 +312,14 @@ def run_case(case, out, force=False, quiet=False, threads=None):
             "reference_energy_J": model.reference_energy}
     out_schedule = d["output"]
     schedule = runner.Schedule(model.steps, out_schedule["sample_every"],
-                               out_schedule["check_every"], out_schedule["every"])
+                               out_schedule["check_every"], out_schedule["every"],
+                               out_schedule["checkpoint_every"])
     checks = lambda damage: runner.post_run_checks(model.fe, damage[model.bridge_index],
                                                    mat["tensile_strength"],
                                                    mat["compressive_strength"])
     return runner.run(model, model.spheres, schedule, out, d["case"]["name"],
                       model.reference_energy, info=info, checks=checks, quiet=quiet,
-                      notes=model.notes)
+                      notes=model.notes, resume=resume)
 
 
 def _run_wave1d(case, out, force):

@@ -138,7 +138,8 @@ DIRICHLET = {"face": Key(choice(*FACES), REQUIRED), "components": Key(_component
 SENSOR = {"name": Key(_string, REQUIRED), "point": Key(_vector, UNSET),
           "sphere": Key(_integer, UNSET, non_negative), "on": Key(choice("auto", "de", "fe"), "auto")}
 OUTPUT = {"every": Key(_integer, 200, at_least_one), "sample_every": Key(_integer, 5, at_least_one),
-          "check_every": Key(_integer, 50, at_least_one)}
+          "check_every": Key(_integer, 50, at_least_one),
+          "checkpoint_every": Key(_integer, 1000, at_least_one)}
 
 GENERIC = {
     "case": CASE,

@@ -30,13 +30,22 @@ def build_parser():
     return parser
 
 
+# exit code of a run stopped by SIGTERM after writing its checkpoint (128 + SIGTERM)
+STOPPED = 143
+
+
 def main(argv=None):
     from orchestrator.diagnostics import BlowUp
+    from orchestrator.restart import Stopped
     from orchestrator.results import ResultsExist
+    from yade_side.checkpoint import CheckpointError
     args = build_parser().parse_args(argv)
     try:
         return args.func(args) or 0
-    except (ValueError, ResultsExist, BlowUp, FileNotFoundError) as e:
+    except Stopped as e:
+        print(f"stopped: {e}", file=sys.stderr)
+        return STOPPED
+    except (ValueError, ResultsExist, BlowUp, FileNotFoundError, CheckpointError) as e:
         # bad input or a run that went wrong: one clear line, no traceback
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -32,6 +32,16 @@ class ExchangeMeter:
             self.net += to_fe - 0.5 * float(corr.force @ (q2 - q0))
             self._history.pop(0)
 
+    def state(self):
+        """What a checkpoint keeps (arrays)."""
+        q, u = zip(*self._history) if self._history else ((), ())
+        return {"to_fe": np.array(self.to_fe), "net": np.array(self.net),
+                "q": np.array(q), "u": np.array(u)}
+
+    def restore(self, state):
+        self.to_fe, self.net = float(state["to_fe"]), float(state["net"])
+        self._history = list(zip(state["q"], state["u"]))
+
 
 class BlowUpGuard:
     """Stops a run on NaN/inf or on energy above `growth` times the largest of the reference

@@ -2,6 +2,6 @@
 from tqdm import tqdm
 
 
-def progress(total, desc, quiet=False):
+def progress(total, desc, quiet=False, initial=0):
     return tqdm(total=total, desc=desc, unit="step", disable=quiet, dynamic_ncols=True,
-                mininterval=1.0)
+                mininterval=1.0, initial=initial)

@@ -20,26 +20,29 @@ log.propagate = False      # run.log only: the console has the progress bar and 
 @dataclass
 class Schedule:
     steps: int
-    sample_every: int = 5       # sensor histories
-    check_every: int = 50       # energy, blow-up guard, progress bar
-    output_every: int = 200     # ParaView frames and damage maps
+    sample_every: int = 5         # sensor histories
+    check_every: int = 50         # energy, blow-up guard, progress bar
+    output_every: int = 200       # ParaView frames and damage maps
+    checkpoint_every: int = 1000  # checkpoints (orchestrator.restart)
 
     def __post_init__(self):
-        for name in ("steps", "sample_every", "check_every", "output_every"):
+        for name in ("steps", "sample_every", "check_every", "output_every", "checkpoint_every"):
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
 
 
 def run(model, spheres, schedule, out, title, reference_energy, info=None, arrays=None,
-        checks=None, notes=(), quiet=False):
+        checks=None, notes=(), quiet=False, resume=False):
     """Run `model` for schedule.steps and write its results folder `out` (already prepared).
 
     spheres: the BodySet of measured spheres (damage, ParaView); info: entries put first in
     summary.json; arrays: extra entries of damage.npz; checks(final_damage) -> warnings;
-    notes: set-up remarks for the log.
-    Returns the summary.
+    notes: set-up remarks for the log; resume: carry on from the checkpoint in `out`.
+    Checkpoints every schedule.checkpoint_every steps and when SIGTERM asks the run to stop
+    (then raises restart.Stopped). Returns the summary.
     """
+    from orchestrator import restart
     from orchestrator.diagnostics import BlowUpGuard
     from orchestrator.progress import progress
     from orchestrator.results import write_json
@@ -58,14 +61,23 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
                  len(m.bridge_index), m.dt, m.critical, schedule.steps)
         for note in notes:
             log.info("note: %s", note)
-        sphere_series = SphereSeries(out / "spheres.pvd")
+        meta = {**restart.fingerprint(m, title, schedule.steps), "info": info or {}}
+        checkpoints = restart.supported(m)
+        if not checkpoints:
+            log.info("no checkpoints: the FE state is distributed over MPI ranks")
+        if resume:
+            rec = restart.load(out, m, meta)
+            log.info("resumed from the checkpoint of step %d", rec.n)
+        else:
+            rec = restart.Record(times=[0.0], history=[m.sensor_displacements()])
+        sphere_series = SphereSeries(out / "spheres.pvd", frames=len(rec.maps_t))
         fe_series = None
         if m.fe is not None:
             from fenicsx_side.output import XdmfSeries
-            fe_series = XdmfSeries(out / "fe.xdmf", m.fe)
+            fe_series = XdmfSeries(out / "fe.xdmf", m.fe, frames=len(rec.maps_t))
         output_s = [0.0]
-        times, history, energy = [0.0], [m.sensor_displacements()], []
-        maps_t, maps = [], []
+        times, history, energy, maps_t, maps = (rec.times, rec.history, rec.energy, rec.maps_t,
+                                                rec.maps)
 
         def output(t):
             t0 = perf_counter()
@@ -79,10 +91,17 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
                 fe_series.write(t)
             output_s[0] += perf_counter() - t0
 
-        output(0.0)
+        def seconds():
+            """Time split of this segment and the earlier ones."""
+            now = {**m.seconds, "output": output_s[0]}
+            return {k: rec.seconds.get(k, 0.0) + now.get(k, 0.0) for k in {*now, *rec.seconds}}
+
+        if not resume:
+            output(0.0)
         t_run = perf_counter()
-        with progress(schedule.steps, title, quiet) as bar:
-            for n in range(1, schedule.steps + 1):
+        with restart.StopRequest() as stop, \
+                progress(schedule.steps, title, quiet, initial=rec.n) as bar:
+            for n in range(rec.n + 1, schedule.steps + 1):
                 m.step()
                 t = n * m.dt
                 if n % schedule.sample_every == 0:
@@ -107,7 +126,17 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
                 if n % schedule.output_every == 0 or n == schedule.steps:
                     output(t)
                 bar.update()
-            wall = perf_counter() - t_run
+                if checkpoints and n < schedule.steps and (
+                        stop.requested or n % schedule.checkpoint_every == 0):
+                    rec.n = n
+                    rec.wall_s += perf_counter() - t_run
+                    t_run = perf_counter()
+                    restart.save(out, rec, m, meta, seconds())
+                    log.info("checkpoint at step %d", n)
+                    if stop.requested:
+                        raise restart.Stopped(f"stopped at step {n} of {schedule.steps}: "
+                                              f"resume with --resume {out}")
+            wall = rec.wall_s + perf_counter() - t_run
         if fe_series is not None:
             fe_series.close()
 
@@ -122,7 +151,7 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
             "n_bridging_spheres": len(m.bridge_index),
             "steps": schedule.steps, "dt": m.dt, "critical_dt": m.critical,
             "wall_s": wall, "s_per_step": wall / schedule.steps,
-            "time_split_s": {**m.seconds, "output": output_s[0]},
+            "time_split_s": seconds(),
             "sensors": {name: {"position": np.asarray(m.sensor_positions[i]).tolist(),
                                "peak_displacement": float(np.linalg.norm(history[:, i], axis=1).max()),
                                "peak_displacement_z": float(np.abs(history[:, i, 2]).max())}

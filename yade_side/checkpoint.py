@@ -103,7 +103,10 @@ def load_scene(folder):
             raise CheckpointError(f"checkpoint {folder} has no {name}")
     with np.load(folder / "cpm_history.npz") as data:
         pairs, history, offset = data["pairs"], data["history"], int(data["offset"])
-    O.load(str(folder / "scene.yade.gz"))
+    try:
+        O.load(str(folder / "scene.yade.gz"))
+    except RuntimeError as e:
+        raise CheckpointError(f"checkpoint {folder}: YADE cannot load the scene ({e})") from None
     links = _cpm_links()
     loaded = np.array([(i.id1, i.id2) for i in links], dtype=np.int64).reshape(-1, 2)
     if not np.array_equal(loaded, pairs):

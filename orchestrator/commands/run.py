@@ -4,13 +4,15 @@ HELP = "run CASE.toml [--set key=value ...] [--out DIR]: a case described in a c
 
 
 def configure(p):
-    p.add_argument("case", help="case file (TOML; see docs/case-files.md)")
+    p.add_argument("case", nargs="?", help="case file (TOML; see docs/case-files.md)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a case-file key (TOML value), e.g. --set coupling.relaxation=20")
     p.add_argument("--out", help="results folder (default: results/<case name>)")
     p.add_argument("--force", action="store_true", help="replace an existing results folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
+    p.add_argument("--resume", metavar="DIR",
+                   help="carry on a stopped run from its checkpoint (its folder's case.toml)")
 
 
 def run(args):
@@ -18,10 +20,22 @@ def run(args):
     from orchestrator.case import run_case
     from orchestrator.casefile import load
     from orchestrator.results import check_out
-    case = load(args.case, args.set)          # every key checked before anything runs
-    out = Path(args.out or Path("results") / case["case"]["name"])
-    check_out(out, args.force)                # refuse before building, not after
-    s = run_case(case, out, force=args.force, quiet=args.quiet, threads=args.threads)
+    if args.resume:
+        if args.case or args.set or args.out:
+            raise ValueError("--resume DIR takes the case, its settings and the folder from DIR: "
+                             "give no case file, --set or --out with it")
+        from orchestrator.restart import read_meta
+        out = Path(args.resume)
+        read_meta(out)                        # a clear error if there is no checkpoint
+        case = load(out / "case.toml")
+    else:
+        if not args.case:
+            raise ValueError("give a case file, or --resume DIR")
+        case = load(args.case, args.set)      # every key checked before anything runs
+        out = Path(args.out or Path("results") / case["case"]["name"])
+        check_out(out, args.force)            # refuse before building, not after
+    s = run_case(case, out, force=args.force, quiet=args.quiet, threads=args.threads,
+                 resume=bool(args.resume))
     if case.kind == "wave1d":        # the wave1d command printed its own result line
         return 0
     print(f"{case['case']['name']} ({case.kind}): {s['n_spheres']} spheres, {s['n_fe_nodes']} "

@@ -13,7 +13,12 @@ def configure(p):
     p.add_argument("--no-rotations", action="store_true", help="couple translations only")
     p.add_argument("--output-every", type=int, default=200, help="steps between ParaView frames")
     p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
-    p.add_argument("--out", required=True, help="results folder")
+    p.add_argument("--checkpoint-every", type=int, default=1000,
+                   help="steps between checkpoints (default 1000)")
+    p.add_argument("--out", help="results folder")
+    p.add_argument("--resume", metavar="DIR",
+                   help="carry on a stopped run from its checkpoint (other options are taken "
+                        "from it)")
     p.add_argument("--force", action="store_true", help="replace an existing results folder")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -22,23 +27,33 @@ def run(args):
     from mpi4py import MPI
     from cases import slab
     from orchestrator.results import prepare_out
-    spec = slab.SlabSpec(scale=args.scale, steps=args.steps, variant=args.variant,
-                         relaxation=args.relaxation, rotations=not args.no_rotations,
-                         output_every=args.output_every)
+    if args.resume:
+        from orchestrator.restart import read_meta
+        info = read_meta(args.resume)["info"]
+        spec, model, args.out = slab.SlabSpec(**info["spec"]), info["model"], args.resume
+    elif args.out:
+        spec = slab.SlabSpec(scale=args.scale, steps=args.steps, variant=args.variant,
+                             relaxation=args.relaxation, rotations=not args.no_rotations,
+                             output_every=args.output_every,
+                             checkpoint_every=args.checkpoint_every)
+        model = args.model
+    else:
+        raise ValueError("give --out DIR for a new run, or --resume DIR")
     comm = MPI.COMM_WORLD
     if comm.size > 1:
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
-        if args.model != "coupled":
-            raise ValueError(f"--model {args.model} has no FE part: run it without mpirun")
+        if model != "coupled":
+            raise ValueError(f"--model {model} has no FE part: run it without mpirun")
         if comm.rank > 0:
             from fenicsx_side.distributed import serve
             serve(slab.fe_model(spec, slab.slab_grid(spec)))
             return 0
+    from pathlib import Path
     from yade_side import import_yade
     import_yade(args.threads)
-    out = prepare_out(args.out, args.force)
-    s = slab.run(spec, args.model, out, quiet=args.quiet)
-    print(f"{args.model} slab ({args.scale}): {s['n_spheres']} spheres, {s['n_fe_nodes']} FE "
+    out = Path(args.resume) if args.resume else prepare_out(args.out, args.force)
+    s = slab.run(spec, model, out, quiet=args.quiet, resume=bool(args.resume))
+    print(f"{model} slab ({spec.scale}): {s['n_spheres']} spheres, {s['n_fe_nodes']} FE "
           f"nodes, {s['n_bridging_spheres']} bridging spheres, {s['steps']} steps of "
           f"{s['dt']:.3g} s, {s['s_per_step'] * 1e3:.2f} ms/step; results in {out}")
     return 0

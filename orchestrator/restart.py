@@ -1,0 +1,149 @@
+"""Checkpoints of a run, and carrying on from the last one (`--resume DIR`).
+
+A checkpoint, `DIR/checkpoint/`, holds everything a run needs to go on as if it had never
+stopped: the YADE scene with its CPM damage history (yade_side.checkpoint), the FE state
+(u, v, t), the coupling's own state (the bridging spheres' accumulated rotations, the energy
+exchange meter) and what the run loop has gathered (sensor histories, energies, damage maps,
+the time split). Everything else (packing, FE mesh and operators, coupling matrices, initial
+links, reference positions) is rebuilt from the case, deterministically, and checked against
+the checkpoint's fingerprint before the state is loaded. A checkpoint is written in a
+temporary folder and swapped in by renames: a run killed at any moment leaves either the
+previous checkpoint or the new one, whole.
+"""
+import json
+import shutil
+import signal
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from orchestrator.results import write_json
+
+CHECKPOINT = "checkpoint"
+
+
+class Stopped(RuntimeError):
+    """The run was asked to stop (SIGTERM) and left a checkpoint."""
+
+
+@dataclass
+class Record:
+    """What the run loop has gathered up to step n."""
+    n: int = 0
+    times: list = field(default_factory=list)
+    history: list = field(default_factory=list)   # (n_sensors, 3) per sample
+    energy: list = field(default_factory=list)    # (t, E) per check
+    maps_t: list = field(default_factory=list)
+    maps: list = field(default_factory=list)      # damage per sphere per output
+    seconds: dict = field(default_factory=dict)   # time split of the earlier run segments
+    wall_s: float = 0.0                           # wall time of earlier run segments
+
+
+def fingerprint(model, title, steps):
+    """What a checkpoint must share with the rebuilt model to be loaded into it."""
+    return {"title": title, "steps": int(steps), "dt": float(model.dt),
+            "n_spheres": int(model.sphere_count()),
+            "n_fe_nodes": 0 if model.fe is None else int(len(model.fe.nodes)),
+            "n_bridging_spheres": int(len(model.bridge_index))}
+
+
+def supported(model):
+    """Checkpoints need the FE state on this process: not under MPI."""
+    comm = getattr(model.fe, "comm", None)
+    return comm is None or comm.size == 1
+
+
+def save(out, record, model, meta, seconds):
+    """Write the checkpoint of step record.n into out/checkpoint, atomically; `seconds`: the
+    run's time split so far."""
+    from yade_side.checkpoint import save_scene
+    out = Path(out)
+    new, old, final = out / f".{CHECKPOINT}.new", out / f".{CHECKPOINT}.old", out / CHECKPOINT
+    shutil.rmtree(new, ignore_errors=True)
+    new.mkdir()
+    save_scene(new / "yade")
+    state = {"n": record.n, "times": np.array(record.times),
+             "history": np.array(record.history), "energy": np.array(record.energy).reshape(-1, 2),
+             "maps_t": np.array(record.maps_t), "maps": np.array(record.maps),
+             "wall_s": record.wall_s}
+    if model.fe is not None:
+        state.update(fe_u=model.fe.u, fe_v=model.fe.v, fe_t=model.fe.t)
+    stepper = getattr(model, "stepper", None)
+    if stepper is not None:
+        state.update(rotation=stepper.bridge.rotation, rotation_pred=stepper.bridge.rotation_pred,
+                     **{f"exchange_{k}": v for k, v in stepper.exchange.state().items()})
+    np.savez(new / "state.npz", **state)
+    write_json(new / "meta.json", {**meta, "step": record.n, "seconds": seconds})
+    if final.exists():
+        final.rename(old)
+    new.rename(final)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def read_meta(out):
+    """The meta.json of the checkpoint in run folder `out` (ValueError if there is none)."""
+    folder = _folder(out)
+    try:
+        return json.loads((folder / "meta.json").read_text())
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{folder}: unreadable checkpoint ({e})") from None
+
+
+def load(out, model, meta):
+    """Put the model in the state of the checkpoint in `out` and return its Record; raises
+    ValueError, before touching the model, if the checkpoint is not of this model."""
+    from yade_side.checkpoint import load_scene
+    folder = _folder(out)
+    saved = read_meta(out)
+    mismatch = {k: (saved.get(k), v) for k, v in meta.items()
+                if k != "info" and saved.get(k) != v}
+    if mismatch:
+        raise ValueError(f"{folder} was written by another run: " + ", ".join(
+            f"{k} {a!r} there, {b!r} here" for k, (a, b) in mismatch.items()))
+    try:
+        with np.load(folder / "state.npz") as data:
+            state = {k: data[k] for k in data.files}
+    except (OSError, ValueError, zipfile.BadZipFile) as e:
+        raise ValueError(f"{folder}: unreadable state.npz ({e})") from None
+    load_scene(folder / "yade")
+    if model.fe is not None:
+        model.fe.u, model.fe.v, model.fe.t = state["fe_u"], state["fe_v"], float(state["fe_t"])
+    stepper = getattr(model, "stepper", None)
+    if stepper is not None:
+        stepper.bridge.rotation[:] = state["rotation"]
+        stepper.bridge.rotation_pred[:] = state["rotation_pred"]
+        stepper.exchange.restore({k[len("exchange_"):]: v for k, v in state.items()
+                                  if k.startswith("exchange_")})
+    return Record(int(state["n"]), list(state["times"]), list(state["history"]),
+                  [tuple(e) for e in state["energy"]], list(state["maps_t"]),
+                  list(state["maps"]), saved["seconds"], float(state["wall_s"]))
+
+
+def _folder(out):
+    folder = Path(out) / CHECKPOINT
+    if not folder.is_dir():
+        old = Path(out) / f".{CHECKPOINT}.old"  # killed between the two renames of save()
+        if old.is_dir():
+            return old
+        raise ValueError(f"{out} has no checkpoint to resume from")
+    return folder
+
+
+class StopRequest:
+    """While active, SIGTERM asks the run to stop after the current step (with a checkpoint)
+    instead of killing it."""
+
+    def __init__(self):
+        self.requested = False
+
+    def __enter__(self):
+        self._previous = signal.signal(signal.SIGTERM, self._handle)
+        return self
+
+    def __exit__(self, *_):
+        signal.signal(signal.SIGTERM, self._previous)
+
+    def _handle(self, *_):
+        self.requested = True
