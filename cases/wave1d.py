@@ -197,7 +197,7 @@ class Wave1DResult:
 
 def run(spec):
     """One coupled run of `spec`: energies and the reflected-wave snapshot."""
-    from cases.block3d import weight_spheres
+    from yade_side.weighting import weight_spheres
     from orchestrator.assembly import bridging_spheres, common_time_step
     from orchestrator.bridging import Bridging, HalfSpaceZone
     from orchestrator.coupling import Coupling
