@@ -7,7 +7,7 @@ export OMP_NUM_THREADS ?= 1
 export OMPI_ALLOW_RUN_AS_ROOT=1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
-.PHONY: setup run test test-slow bench clean
+.PHONY: setup run test test-slow bench wave1d-study clean
 
 # Idempotent: re-runs apt only when the package list changed.
 setup: $(STAMP)
@@ -28,6 +28,10 @@ test: setup
 
 test-slow: setup
 	$(PY) -m pytest -q -m slow tests
+
+# The paper's 1D spurious-reflection study (Figs. 4-7), about 3 min: results/wave1d-study/
+wave1d-study: setup
+	$(PY) -m orchestrator wave1d-study --out results/wave1d-study --force
 
 bench: setup
 	@echo "make bench: no benchmark suite yet (issue 6); docs/coupling.md lists the costs measured so far."
