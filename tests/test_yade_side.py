@@ -79,9 +79,25 @@ def test_memory_view_is_refused_when_yade_api_does_not_confirm_it():
     from yade_side.state_memory import locate
     ids = cluster(n=3)
     subdomain = yade.wrapper.Subdomain()
-    assert locate(O.bodies, ids, subdomain.getStateValuesFromIds,
+    assert locate(O, ids, subdomain.getStateValuesFromIds,
                   subdomain.setStateValuesFromIds) is not None
-    assert locate(O.bodies, ids, subdomain.getStateValuesFromIds, lambda i, v: None) is None
+    assert locate(O, ids, subdomain.getStateValuesFromIds, lambda i, v: None) is None
+
+
+def test_memory_view_refuses_a_replaced_scene():
+    """After O.reset the located States are no longer simulated: reads and writes stop with
+    an error instead of touching them."""
+    from yade_side.state_memory import SceneReplaced, locate
+    ids = cluster(n=3)
+    subdomain = yade.wrapper.Subdomain()
+    memory = locate(O, ids, subdomain.getStateValuesFromIds, subdomain.setStateValuesFromIds)
+    out = np.empty((3, 13))
+    memory.read(out)
+    cluster(n=3)  # a new scene with bodies of the same ids
+    with pytest.raises(SceneReplaced, match="replaced"):
+        memory.read(out)
+    with pytest.raises(SceneReplaced, match="replaced"):
+        memory.write(out)
 
 
 @pytest.mark.parametrize("direct", [True, False])

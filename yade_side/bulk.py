@@ -52,7 +52,7 @@ class BodySet:
         objects, and a view of the old ones would read and write bodies no longer simulated."""
         self._memory = None
         if self._direct:
-            self._memory = locate(self._O.bodies, self._id_list, self._api_get, self._api_put)
+            self._memory = locate(self._O, self._id_list, self._api_get, self._api_put)
 
     def __len__(self):
         return len(self.ids)

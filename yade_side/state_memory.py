@@ -23,19 +23,34 @@ _SEARCH = 64  # doubles of a State searched for the fields
 _WIDTHS = (3, 3, 3, 4)  # pos, vel, angVel, ori (x, y, z, w): the API's order
 
 
-class StateMemory:
-    """Gather/scatter of the 13 API values of a fixed list of bodies."""
+class SceneReplaced(RuntimeError):
+    pass
 
-    def __init__(self, wrappers, index, base, span):
-        self._wrappers = wrappers  # keep the C++ States alive
+
+class StateMemory:
+    """Gather/scatter of the 13 API values of a fixed list of bodies. Each call first checks
+    that the scene still holds the first body's State (a few µs): after O.load or O.reset the
+    view would otherwise read and write States no longer simulated."""
+
+    def __init__(self, omega, first_id, wrappers, index, base, span):
+        self._omega, self._first_id = omega, first_id
+        self._wrappers = wrappers  # keep the C++ States alive: their addresses stay unique
+        self._first_address = state_address(wrappers[0])
         self._index = index        # (n, 13) offsets in doubles from `base`
         self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
 
+    def _check(self):
+        if state_address(self._omega.bodies[self._first_id].state) != self._first_address:
+            raise SceneReplaced("YADE's bodies were replaced (O.load or O.reset) after this body "
+                                "set located them in memory: reattach it to the new scene")
+
     def read(self, out):
+        self._check()
         # indices are in range by construction; mode="raise" would buffer `out` (2x slower)
         np.take(self._view, self._index, out=out, mode="clip")
 
     def write(self, values):
+        self._check()
         self._view[self._index] = values
 
 
@@ -48,14 +63,14 @@ def state_address(wrapper):
     return int(words[_POINTER_WORD])
 
 
-def locate(bodies, ids, get, put):
+def locate(omega, ids, get, put):
     """A verified StateMemory for the bodies `ids`, or None.
 
-    bodies: O.bodies; get(ids) / put(ids, values): YADE's bulk API (13 values per body).
+    omega: yade.Omega(); get(ids) / put(ids, values): YADE's bulk API (13 values per body).
     """
     if len(ids) == 0:
         return None
-    wrappers = [bodies[i].state for i in ids]
+    wrappers = [omega.bodies[i].state for i in ids]
     addresses = [state_address(w) for w in wrappers]
     if None in addresses or any(a % 8 for a in addresses):
         return None
@@ -66,7 +81,7 @@ def locate(bodies, ids, get, put):
     base = int(addresses.min())
     span = int(addresses.max() - base) // 8 + _SEARCH
     index = (addresses - base)[:, None] // 8 + offsets[None, :]
-    memory = StateMemory(wrappers, index, base, span)
+    memory = StateMemory(omega, ids[0], wrappers, index, base, span)
     expected = np.array(get(ids), float).reshape(-1, 13)
     got = np.empty_like(expected)
     memory.read(got)
