@@ -33,8 +33,10 @@ test-slow: setup
 wave1d-study: setup
 	$(PY) -m orchestrator wave1d-study --out results/wave1d-study --force
 
+# Slab full vs coupled at small, medium and paper scale against the performance goals:
+# bench/results.json and docs/benchmarks.md (about 10 min; BENCH_ARGS=--quick: 1-2 min)
 bench: setup
-	@echo "make bench: no benchmark suite yet (issue 6); docs/coupling.md lists the costs measured so far."
+	$(PY) -m bench $(BENCH_ARGS)
 
 clean:
 	rm -rf results .pytest_cache $(STAMP)
