@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from orchestrator.multipliers import DiagonalSolver, FullSolver
+from orchestrator.multipliers import DiagonalSolver, FullSolver, lumping_ratio
 
 VARIANTS = ("full", "diagonal")
 
@@ -81,6 +81,14 @@ class Coupling:
             blocks = [(0, 3 * n), (3 * n, 6 * n)] if rotations else [(0, 3 * n)]
             self.solver = DiagonalSolver(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt,
                                          blocks)
+        self.lumping_ratio = 1.0 if variant == "full" else lumping_ratio(
+            self.G, self.de_inv_mass, self.fe_inv_mass, self.dt, self.solver.diagonal)
+        if self.relaxation < 0.5 * self.lumping_ratio:
+            raise ValueError(
+                f"relaxation r = {relaxation!r} makes the {variant} coupling unstable: its "
+                f"corrections over-shoot the constraints when r < ρ/2 = "
+                f"{0.5 * self.lumping_ratio:.4g} (ρ = {self.lumping_ratio:.4g}, the largest "
+                f"eigenvalue of the lumped against the full multiplier matrix); take a larger r")
 
     def correct(self, d, w, u):
         """Corrections for predicted sphere displacements d (n,3), rotations w (n,3) and FE

@@ -161,3 +161,23 @@ def test_full_solver_inverts_the_multiplier_matrix(fixed_fraction):
     for backend in ("splu", "cholmod"):
         lam = FullSolver(cpl.G, cpl.de_inv_mass, cpl.fe_inv_mass, cpl.dt, backend).solve(g)
         assert np.allclose(lam, exact, rtol=0, atol=1e2 * cond * EPS * np.abs(exact).max())
+
+
+@pytest.mark.parametrize("rotations", [False, True])
+def test_lumping_ratio_is_the_largest_eigenvalue_of_the_lumped_against_the_full_matrix(rotations):
+    """ρ = λ_max(S̄⁻¹ S) against a dense generalized eigensolve; translations alone have
+    non-negative k, so the row sums dominate (Perron): ρ ≤ 1. A relaxation below ρ/2 is
+    refused, one above it accepted; full Lagrange (ρ = 1) refuses r < 1/2."""
+    args, _ = synthetic()
+    c = Coupling(**args, variant="diagonal", rotations=rotations, relaxation=5.0)
+    S = multiplier_matrix(c.G, c.de_inv_mass, c.fe_inv_mass, c.dt).toarray()
+    d = c.solver.diagonal
+    dense = np.linalg.eigvalsh(S / np.sqrt(np.outer(d, d)))[-1]
+    assert c.lumping_ratio == pytest.approx(dense, rel=1e-6)
+    if not rotations:
+        assert c.lumping_ratio <= 1 + 1e-12
+    with pytest.raises(ValueError, match=r"unstable: .* r < ρ/2"):
+        Coupling(**args, variant="diagonal", rotations=rotations, relaxation=0.45 * dense)
+    Coupling(**args, variant="diagonal", rotations=rotations, relaxation=0.55 * dense)
+    with pytest.raises(ValueError, match=r"r = 0.4 makes the full coupling unstable"):
+        Coupling(**args, variant="full", rotations=rotations, relaxation=0.4)
