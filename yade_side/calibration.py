@@ -198,8 +198,8 @@ class Target:
             if not (v > 0 and math.isfinite(v)):
                 raise ValueError(f"target {name} must be a positive number, got {v!r}")
         if self.poisson is not None and not 0 < self.poisson < 0.25:
-            raise ValueError(f"target poisson must be in (0, 0.25) (a CPM sphere packing has "
-                             f"ν < 1/4), got {self.poisson!r}")
+            raise ValueError(f"target poisson must be in (0, 0.25) (sphere packings with "
+                             f"shear links reach ν < 1/4), got {self.poisson!r}")
 
 
 def _next_link_ratio(history, nu_target):
