@@ -19,11 +19,11 @@ SLAB = (2.5, 2.0, 0.28)
 SCALES = {"small": 0.025, "medium": 0.02, "paper": 0.0118}
 DEFAULT_STEPS = {"small": 1200, "medium": 1500, "paper": 300}
 # FE modulus per scale: the bending modulus of the DE slab it stands for, measured by quasi-static
-# 3-point bending of a 0.3 m wide strip of the slab's packing against the same strip in FE on the
-# scale's grid (docs/slab.md). A few spheres through 0.28 m bend like 17-20 GPa, not the 29 GPa
-# of their uniaxial test: an FE at 31 GPa made the coupled slab twice as stiff as the full one.
-# Not measured at paper scale (12 diameters through the thickness): the concrete's 31 GPa.
-FE_YOUNG = {"small": 17.0e9, "medium": 20.6e9, "paper": 31e9}
+# 3-point bending of a strip of the slab's packing against the same strip in FE on the scale's
+# grid (`python3 -m cases.slab_bending --scale S`). 5.6-7 sphere diameters through 0.28 m bend
+# like 17-21 GPa, not the 29 GPa of their uniaxial test: an FE at 31 GPa made the coupled slab
+# about twice as stiff as the full one. Not measured at paper scale: the concrete's 31 GPa.
+FE_YOUNG = {"small": 17.2e9, "medium": 20.9e9, "paper": 31e9}
 # The DE zone spans the slab's whole width (y) where damage reaches its free edges y = 0, 2
 # (small scale: 40 m/s nearly perforates a slab 5.6 sphere diameters thick; docs/slab.md).
 FULL_WIDTH = {"small": True, "medium": False, "paper": False}

@@ -7,7 +7,7 @@ import pytest
 from cases import slab
 from orchestrator.cli import main
 
-STEPS = 400  # contact starts after step ~250 at small scale
+STEPS = 550  # contact starts after step ~470 at small scale (dt = 0.15 x PWave)
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +47,7 @@ def test_model_invariants():
     supports hold: supported spheres (full) and the FE support faces (coupled) keep u_z = 0."""
     from yade_side import import_yade
     O = import_yade().Omega()
-    spec = slab.SlabSpec(scale="small", steps=400)
+    spec = slab.SlabSpec(scale="small", steps=400, dt_safety=0.3)  # contact after step ~235
     for model in ("full", "coupled"):
         m = slab.SlabModel(spec, model)
         impactor, slab_ids = set(m.impactor_ids.tolist()), set(m.slab_ids.tolist())
@@ -79,3 +79,22 @@ def test_model_invariants():
 def test_grid_rejects_a_de_zone_that_does_not_fit():
     with pytest.raises(ValueError, match="do not fit"):
         slab.slab_grid(slab.SlabSpec(scale="small", de_zone=1.8))
+
+
+def test_impactor_starts_just_beyond_the_cohesive_reach():
+    """The closest impactor-slab pair sits 1.05 × the first step's link reach apart (1.5 × the
+    sum of radii; all radii equal here), so contact starts after a travel of about one radius."""
+    from scipy.spatial import cKDTree
+    from yade_side.scene import INTERACTION_RADIUS
+    p = slab.make_packings(slab.SlabSpec(scale="small"))
+    assert np.ptp(np.concatenate([p.slab_radii, p.impactor_radii])) == 0
+    gap = cKDTree(p.slab_centres).query(p.impactor_centres)[0].min()
+    assert np.isclose(gap / (2 * p.slab_radii[0]), 1.05 * INTERACTION_RADIUS, rtol=1e-12)
+
+
+def test_full_width_de_zone_is_bounded_along_x_only():
+    grid = slab.slab_grid(slab.SlabSpec(scale="small"))
+    assert grid.axes == (0,)
+    assert grid.hole_lo[1] == 0 and grid.hole_hi[1] == slab.SLAB[1]
+    boxed = slab.slab_grid(slab.SlabSpec(scale="small", full_width=False))
+    assert boxed.axes == (0, 1) and 0 < boxed.hole_lo[1] < boxed.hole_hi[1] < slab.SLAB[1]
