@@ -112,9 +112,8 @@ def run_batch(jobs, out, parallel=1, env=None):
                "batch_wall_s": round(perf_counter() - t0, 3)}
         row.update({f"set.{k}": v for k, v in job.overrides.items()})
         if proc.returncode != 0:
-            lines = [line for line in proc.stderr.splitlines() if line.strip()]
             row["status"] = "failed"
-            row["error"] = lines[-1] if lines else f"exit code {proc.returncode}"
+            row["error"] = error_message(proc.stderr) or f"exit code {proc.returncode}"
         else:
             summary = out / job.name / "summary.json"
             if summary.is_file():
@@ -125,6 +124,14 @@ def run_batch(jobs, out, parallel=1, env=None):
         rows = list(pool.map(one, jobs))
     write_summary(out, rows)
     return rows
+
+
+def error_message(stderr):
+    """The run's error on one line: from its last `error:` line on (a case file's problems
+    follow it, one per line), else its last line."""
+    lines = [line.strip() for line in stderr.splitlines() if line.strip()]
+    starts = [i for i, line in enumerate(lines) if line.startswith(("error:", "stopped:"))]
+    return " ".join(lines[starts[-1]:] if starts else lines[-1:])
 
 
 def key_results(summary, prefix=""):

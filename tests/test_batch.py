@@ -76,3 +76,26 @@ def test_summary_flattens_scalars_and_lists_failures(tmp_path):
     assert [r["status"] for r in read] == ["ok", "failed"]
     assert read[0]["time_split_s.yade"] == "1.5" and read[1]["time_split_s.yade"] == ""
     assert (tmp_path / "failures.txt").read_text() == "b: error: bad r\n"
+
+
+def test_a_batch_runs_a_parameter_table_and_lists_its_failure(tmp_path):
+    """The entrypoint outside Docker: one case, a table of two good rows and a bad one, two
+    runs at a time; each run's folder, the summary CSV with key results, the failure named."""
+    from orchestrator.cli import main
+    table = tmp_path / "params.csv"
+    table.write_text("name,coupling.relaxation,time.duration\n"
+                     "r5,5.0,2e-5\nr20,20.0,2e-5\nbad,-1.0,2e-5\n")
+    out = tmp_path / "batch"
+    code = main(["batch", str(ROOT / "cases" / "block_impact.toml"), "--table", str(table),
+                 "-j", "2", "--out", str(out)])
+    assert code == 1  # one run failed
+    with open(out / "batch_summary.csv") as f:
+        rows = {r["name"]: r for r in csv.DictReader(f)}
+    assert [rows[n]["status"] for n in ("r5", "r20", "bad")] == ["ok", "ok", "failed"]
+    for name in ("r5", "r20"):
+        assert (out / name / "summary.json").is_file() and (out / name / "spheres.pvd").is_file()
+        assert int(rows[name]["steps"]) >= 1 and float(rows[name]["relaxation"]) == float(
+            rows[name]["set.coupling.relaxation"])
+    assert "coupling.relaxation" in rows["bad"]["error"]
+    assert (out / "failures.txt").read_text().startswith("bad: error: case file")
+    assert (out / "logs" / "r5.log").is_file()
