@@ -33,6 +33,15 @@ class Correction:
         """G u of the corrected FE field (the residual is q − Gu); on demand, not every step."""
         return self.G @ self.u
 
+    def gaps(self):
+        """Largest constraint residual before and after the correction, relative to the
+        largest sphere dof (0 when nothing moves): the coupling's health at a glance."""
+        scale = np.abs(self.q).max(initial=0.0)
+        if scale == 0:
+            return 0.0, 0.0
+        return (float(np.abs(self.gap_pred).max()) / scale,
+                float(np.abs(self.q - self.Gu).max()) / scale)
+
 
 class Coupling:
     """Bridging-domain coupling of n spheres to an FE field of `fe_mass.size` dofs.

@@ -37,6 +37,7 @@ class Record:
     energy: list = field(default_factory=list)    # (t, E) per check
     maps_t: list = field(default_factory=list)
     maps: list = field(default_factory=list)      # damage per sphere per output
+    gaps: list = field(default_factory=list)      # (t, constraint gap before, after) per check
     seconds: dict = field(default_factory=dict)   # time split of the earlier run segments
     wall_s: float = 0.0                           # wall time of earlier run segments
 
@@ -67,6 +68,7 @@ def save(out, record, model, meta, seconds):
     state = {"n": record.n, "times": np.array(record.times),
              "history": np.array(record.history), "energy": np.array(record.energy).reshape(-1, 2),
              "maps_t": np.array(record.maps_t), "maps": np.array(record.maps),
+             "gaps": np.array(record.gaps).reshape(-1, 3),
              "wall_s": record.wall_s}
     if model.fe is not None:
         state.update(fe_u=model.fe.u, fe_v=model.fe.v, fe_t=model.fe.t)
@@ -118,7 +120,8 @@ def load(out, model, meta):
                                   if k.startswith("exchange_")})
     return Record(int(state["n"]), list(state["times"]), list(state["history"]),
                   [tuple(e) for e in state["energy"]], list(state["maps_t"]),
-                  list(state["maps"]), saved["seconds"], float(state["wall_s"]))
+                  list(state["maps"]), [tuple(g) for g in state["gaps"]], saved["seconds"],
+                  float(state["wall_s"]))
 
 
 def _folder(out):

@@ -76,8 +76,8 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
             from fenicsx_side.output import XdmfSeries
             fe_series = XdmfSeries(out / "fe.xdmf", m.fe, frames=len(rec.maps_t))
         output_s = [0.0]
-        times, history, energy, maps_t, maps = (rec.times, rec.history, rec.energy, rec.maps_t,
-                                                rec.maps)
+        times, history, energy, maps_t, maps, gaps = (rec.times, rec.history, rec.energy,
+                                                      rec.maps_t, rec.maps, rec.gaps)
 
         def output(t):
             t0 = perf_counter()
@@ -116,9 +116,13 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
                     guard.check(n, e, **checked)
                     # energy balance: total, and what the coupling put into the FE model and
                     # created (+) or dissipated (−) itself
-                    meter = stepper.exchange if stepper is not None else None
-                    balance = {} if meter is None else {"to_FE": f"{meter.to_fe:.3g} J",
-                                                        "coupling": f"{meter.net:+.3g} J"}
+                    balance = {}
+                    if stepper is not None and stepper.last is not None:
+                        meter, (pred, corrected) = stepper.exchange, stepper.last.gaps()
+                        gaps.append((t, pred, corrected))
+                        balance = {"to_FE": f"{meter.to_fe:.3g} J",
+                                   "coupling": f"{meter.net:+.3g} J",
+                                   "gap": f"{pred:.2g}>{corrected:.2g}"}
                     bar.set_postfix(t=f"{t * 1e3:.4g} ms", E=f"{e:.4g} J", **balance,
                                     refresh=False)
                     log.info("step %d, t = %.6g s, energy %.6g J%s", n, t, e,
@@ -161,6 +165,7 @@ def run(model, spheres, schedule, out, title, reference_energy, info=None, array
                        "damaged_volume_m3": float(final @ volume),
                        "max_bridging_damage": float(final[m.bridge_index].max(initial=0.0))},
             "energy": energy,
+            "constraint_gap": gaps,
             "coupling_energy_J": None if stepper is None else {
                 "to_fe": stepper.exchange.to_fe, "net": stepper.exchange.net},
             "warnings": warnings,

@@ -73,6 +73,7 @@ def assert_same_results(a, b):
             assert same_bits(c1["stress"][0], c2["stress"][0])
     sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
     assert sa["energy"] == sb["energy"] and sa["damage"] == sb["damage"]
+    assert sa["constraint_gap"] == sb["constraint_gap"] and len(sa["constraint_gap"]) > 1
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
