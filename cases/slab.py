@@ -51,6 +51,7 @@ class SlabSpec:
     impactor_side: float = 0.30
     impactor_speed: float = 40.0
     variant: str = "diagonal"
+    weighting: str = "nodal"         # "nodal" (the paper's) or "consistent" (cases/block3d.py)
     relaxation: float = 35.0
     rotations: bool = True
     dt_safety: float = 0.15          # × the smaller critical step: at 0.3 the slab's kinetic
@@ -67,6 +68,9 @@ class SlabSpec:
     tensile_strength: float = None   # Pa; default TENSILE_STRENGTH[scale] (calibration)
 
     def __post_init__(self):
+        if self.weighting not in ("nodal", "consistent"):
+            raise ValueError(f"slab: weighting must be 'nodal' or 'consistent', got "
+                             f"{self.weighting!r}")
         if self.scale not in SCALES:
             raise ValueError(f"scale must be one of {tuple(SCALES)}, got {self.scale!r}")
         self.radius = SCALES[self.scale] if self.radius is None else self.radius
@@ -171,14 +175,21 @@ def sensor_points(spec, grid):
     }
 
 
+def slab_bridging(spec, grid):
+    from orchestrator.bridging import BoxZone, Bridging
+    return Bridging(BoxZone(grid.hole_lo, grid.hole_hi, grid.axes), spec.layers, grid.h)
+
+
 def fe_model(spec, grid):
     """The coupled model's FE part: the slab less the DE zone, its x = 0 and x = 2.5 faces held
-    in z (simple supports). Collective under MPI: every rank builds it."""
+    in z (simple supports); with the consistent weighting, stiffness and mass weighted by α.
+    Collective under MPI: every rank builds it."""
     from fenicsx_side.mesh import box_mesh_with_hole
     from fenicsx_side.model import ElasticModel, face
     msh = box_mesh_with_hole((0, 0, 0), SLAB, grid.n, grid.hole_lo, grid.hole_hi)
     supports = [(face(0, 0.0), (2,)), (face(0, SLAB[0]), (2,))]
-    return ElasticModel(msh, spec.young, spec.poisson, spec.density, supports)
+    weight = slab_bridging(spec, grid).alpha if spec.weighting == "consistent" else None
+    return ElasticModel(msh, spec.young, spec.poisson, spec.density, supports, weight=weight)
 
 
 class SlabModel:
@@ -188,7 +199,6 @@ class SlabModel:
         if model not in ("full", "coupled"):
             raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
         from orchestrator.assembly import bridging_spheres, check_time_step, common_time_step
-        from orchestrator.bridging import BoxZone, Bridging
         from yade_side import import_yade
         from yade_side.bulk import BodySet
         from yade_side.damage import LinkDamage
@@ -202,8 +212,7 @@ class SlabModel:
         self.spec, self.model = spec, model
         self.grid = grid = slab_grid(spec)
         packs = make_packings(spec)
-        self.bridging = Bridging(BoxZone(grid.hole_lo, grid.hole_hi, grid.axes), spec.layers,
-                                 grid.h)
+        self.bridging = slab_bridging(spec, grid)
         keep = np.arange(len(packs.slab_radii))
         if model == "coupled":
             keep = np.flatnonzero(self.bridging.zone.depth(packs.slab_centres)
@@ -236,6 +245,10 @@ class SlabModel:
         self.critical = {"de": de_critical, "fe": None if self.fe is None else fe_critical}
         cpm_engines(dt=self.dt)
         create_cohesive_links()
+        consistent = model == "coupled" and spec.weighting == "consistent"
+        if consistent:
+            from yade_side.weighting import weight_spheres
+            weight_spheres(self.slab_ids, self.bridging.beta(packs.slab_centres[keep]))
 
         self.slab = BodySet(self.slab_ids)
         self.impactor = BodySet(self.impactor_ids)
@@ -252,7 +265,8 @@ class SlabModel:
             self.bridge_index = bridging_spheres(self.bridging, self.slab.ref_pos)
             self.bridge = BodySet(self.slab_ids[self.bridge_index])
             coupling = make_coupling(self.fe, self.bridging, self.bridge, self.dt, spec.variant,
-                                     spec.relaxation, spec.rotations)
+                                     spec.relaxation, spec.rotations,
+                                     nodal_weights=not consistent)
             self.stepper = CoupledStepper(O.step, self.bridge, self.fe, coupling)
         self.in_de_zone = self.bridging.zone.depth(self.slab.ref_pos) < 0
         self._sensor_setup()

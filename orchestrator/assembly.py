@@ -28,10 +28,14 @@ def check_time_step(dt, de_critical, fe_critical):
 
 
 def make_coupling(fe, bridging, bridge, dt, variant="full", relaxation=1.0, rotations=True,
-                  backend="auto"):
-    """Coupling of the bridge spheres (`bridge.ref_pos`, `mass`, `inertia`) to the FE model."""
+                  backend="auto", nodal_weights=True):
+    """Coupling of the bridge spheres (`bridge.ref_pos`, `mass`, `inertia`) to the FE model.
+    nodal_weights: α and β weigh the multipliers (the paper's); False when both partners
+    already integrate their weighted energies (the consistent weighting: weights inside their
+    masses and stiffnesses, so α = β = 1 here)."""
     k, h = fe.point_operators(bridge.ref_pos)
-    return Coupling(k, h if rotations else None, bridge.mass, bridge.inertia,
-                    bridging.beta(bridge.ref_pos), fe.mass, np.repeat(bridging.alpha(fe.nodes), 3),
-                    fe.fixed, dt, variant=variant, relaxation=relaxation, rotations=rotations,
-                    backend=backend)
+    beta = bridging.beta(bridge.ref_pos) if nodal_weights else np.ones(len(bridge.ref_pos))
+    alpha = bridging.alpha(fe.nodes) if nodal_weights else np.ones(len(fe.nodes))
+    return Coupling(k, h if rotations else None, bridge.mass, bridge.inertia, beta, fe.mass,
+                    np.repeat(alpha, 3), fe.fixed, dt, variant=variant, relaxation=relaxation,
+                    rotations=rotations, backend=backend)

@@ -98,3 +98,27 @@ def test_full_width_de_zone_is_bounded_along_x_only():
     assert grid.hole_lo[1] == 0 and grid.hole_hi[1] == slab.SLAB[1]
     boxed = slab.slab_grid(slab.SlabSpec(scale="small", full_width=False))
     assert boxed.axes == (0, 1) and 0 < boxed.hole_lo[1] < boxed.hole_hi[1] < slab.SLAB[1]
+
+
+def test_consistent_weighting_puts_alpha_and_beta_inside_both_models():
+    """Small scale, DE strip through the width: the FE's lumped mass is ρ ∫ α over the FE
+    domain with α interpolated at the nodes: V_FE − (one band's volume / 2) per side for the
+    linear ramp, plus the 0.01 floor at the band's inner nodes (a hat of height 0.01 over the
+    first element layer: 0.01 h/2 per unit area); every bridging sphere's YADE mass is β × its
+    own (mass / (β r³) the same for all); the coupling then takes α = β = 1."""
+    spec = slab.SlabSpec(scale="small", weighting="consistent")
+    m = slab.SlabModel(spec, "coupled")
+    g = m.grid
+    thickness, width = slab.SLAB[2], slab.SLAB[1]
+    band = spec.layers * g.h * width * thickness
+    v_fe = (slab.SLAB[0] - (g.hole_hi[0] - g.hole_lo[0])) * width * thickness
+    floor = 2 * 0.01 * g.h / 2 * width * thickness
+    assert m.fe.mass.sum() / 3 == pytest.approx(spec.density * (v_fe - band + floor), rel=1e-12)
+    beta = m.bridging.beta(m.bridge.ref_pos)
+    assert beta.min() < 0.05 and beta.max() > 0.95
+    per_volume = m.bridge.mass / (beta * m.bridge.radius**3)
+    assert np.ptp(per_volume) <= 1e-12 * per_volume.max()
+    c = m.stepper.coupling
+    assert np.allclose(c.de_inv_mass[:3 * c.n], np.repeat(1 / m.bridge.mass, 3), rtol=1e-14)
+    with pytest.raises(ValueError, match="weighting must be"):
+        slab.SlabSpec(weighting="paper")
