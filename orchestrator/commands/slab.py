@@ -10,9 +10,9 @@ def configure(p):
     p.add_argument("--variant", choices=("full", "diagonal"), default="diagonal",
                    help="multiplier solver (default: diagonal)")
     p.add_argument("--relaxation", type=float, default=35.0, help="relaxation r (default 35)")
-    p.add_argument("--weighting", choices=("nodal", "consistent"), default="nodal",
-                   help="bridging energy weights: the paper's nodal ones (default) or inside "
-                        "the partners' masses and stiffnesses (conservative)")
+    p.add_argument("--weighting", choices=("nodal", "consistent"), default="consistent",
+                   help="bridging energy weights: inside the partners' masses and stiffnesses "
+                        "(default, conservative) or the paper's nodal ones")
     p.add_argument("--no-rotations", action="store_true", help="couple translations only")
     p.add_argument("--output-every", type=int, default=200, help="steps between ParaView frames")
     p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
