@@ -175,6 +175,12 @@ def sensor_points(spec, grid):
     }
 
 
+def concrete(spec):
+    """The slab's CPM parameters: the calibrated set of its scale, its bulk density."""
+    from yade_side.material import ConcreteParams
+    return ConcreteParams(density=spec.density, **CPM[spec.scale])
+
+
 def slab_bridging(spec, grid):
     from orchestrator.bridging import BoxZone, Bridging
     return Bridging(BoxZone(grid.hole_lo, grid.hole_hi, grid.axes), spec.layers, grid.h)
@@ -202,7 +208,7 @@ class SlabModel:
         from yade_side import import_yade
         from yade_side.bulk import BodySet
         from yade_side.damage import LinkDamage
-        from yade_side.material import ConcreteParams, cpm_material
+        from yade_side.material import cpm_material
         from yade_side.packing import add_spheres
         from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
 
@@ -220,8 +226,7 @@ class SlabModel:
         self.slab_index = keep  # indices into the whole-slab packing
 
         reset_scene()
-        mat = cpm_material(ConcreteParams(density=spec.density, **CPM[spec.scale]),
-                           packs.slab_fraction)
+        mat = cpm_material(concrete(spec), packs.slab_fraction)
         self.slab_ids = add_spheres(packs.slab_centres[keep], packs.slab_radii[keep], mat)
         self.impactor_ids = add_spheres(packs.impactor_centres, packs.impactor_radii, mat)
         self.radius = packs.slab_radii[keep]

@@ -25,14 +25,14 @@ def de_deflection(spec, load, tol=2e-4, chunk=500, max_chunks=60):
     """Mid-span, mid-thickness mean z deflection of the DE strip and its sphere count."""
     from yade_side import import_yade
     from yade_side.bulk import BodySet
-    from yade_side.material import ConcreteParams, cpm_material
+    from yade_side.material import cpm_material
     from yade_side.packing import add_spheres
     from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
     O = import_yade().Omega()
     packs = slab.make_packings(spec)
     c, r = _strip(packs.slab_centres, packs.slab_radii)
     reset_scene()
-    ids = add_spheres(c, r, cpm_material(ConcreteParams(density=spec.density), packs.slab_fraction))
+    ids = add_spheres(c, r, cpm_material(slab.concrete(spec), packs.slab_fraction))
     _, newton = cpm_engines(dt_safety=0.8)
     create_cohesive_links()
     for i in O.interactions:
