@@ -23,8 +23,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from orchestrator.bridging import check_weighting
 
-WEIGHTINGS = ("nodal", "consistent")
+
 
 
 @dataclass
@@ -54,8 +55,7 @@ class BlockSpec:
                 raise ValueError(f"block: {name} must be > 0, got {getattr(self, name)!r}")
         if not 0 < self.dt_safety <= 1:
             raise ValueError(f"block: dt_safety must be in (0, 1], got {self.dt_safety!r}")
-        if self.weighting not in WEIGHTINGS:
-            raise ValueError(f"block: weighting must be one of {WEIGHTINGS}, got {self.weighting!r}")
+        check_weighting("block", self.weighting)
         if self.uniform_weight is not None and not 0 < self.uniform_weight < 1:
             raise ValueError(f"block: uniform_weight must be in (0, 1), got {self.uniform_weight!r}")
         cells = (np.array(self.size) - self.fe_lo) / self.element

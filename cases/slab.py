@@ -69,9 +69,8 @@ class SlabSpec:
     tensile_strength: float = None   # Pa; default TENSILE_STRENGTH[scale] (calibration)
 
     def __post_init__(self):
-        if self.weighting not in ("nodal", "consistent"):
-            raise ValueError(f"slab: weighting must be 'nodal' or 'consistent', got "
-                             f"{self.weighting!r}")
+        from orchestrator.bridging import check_weighting
+        check_weighting("slab", self.weighting)
         if self.scale not in SCALES:
             raise ValueError(f"scale must be one of {tuple(SCALES)}, got {self.scale!r}")
         self.radius = SCALES[self.scale] if self.radius is None else self.radius

@@ -21,6 +21,8 @@ from time import perf_counter
 
 import numpy as np
 
+from orchestrator.bridging import check_weighting
+
 E, RHO = 30e9, 2400.0          # concrete-like bar (m, kg, s)
 C = math.sqrt(E / RHO)
 LF_ELEMENTS = 20               # LF pulse sin²(πt/T), c T = 20 h: wavelengths >= 10 h
@@ -69,9 +71,7 @@ class Wave1DSpec:
                 raise ValueError(f"wave1d: {name} must be >= 0, got {getattr(self, name)!r}")
         if self.lf_amplitude + self.hf_amplitude == 0:
             raise ValueError("wave1d: lf_amplitude and hf_amplitude are both 0: no wave")
-        if self.weighting not in ("nodal", "consistent"):
-            raise ValueError(f"wave1d: weighting must be 'nodal' or 'consistent', "
-                             f"got {self.weighting!r}")
+        check_weighting("wave1d", self.weighting)
         if not 0 < self.dt_safety <= 1:
             raise ValueError(f"wave1d: dt_safety must be in (0, 1], got {self.dt_safety!r}")
         if self.relaxation == "auto":

@@ -8,6 +8,14 @@ both clamped to at least 0.01 because the corrector divides by them (METHOD.md, 
 import numpy as np
 
 WEIGHT_FLOOR = 0.01
+# How α and β enter the models: "nodal" (the paper's: they weigh the multipliers only) or
+# "consistent" (inside each partner's masses and stiffnesses: energy-conserving).
+WEIGHTINGS = ("nodal", "consistent")
+
+
+def check_weighting(owner, weighting):
+    if weighting not in WEIGHTINGS:
+        raise ValueError(f"{owner}: weighting must be one of {WEIGHTINGS}, got {weighting!r}")
 
 
 class HalfSpaceZone:

@@ -1,5 +1,7 @@
 """`batch`: many case files, or one case with a parameter table, N runs at a time
 (the Docker image's entrypoint)."""
+from orchestrator.commands._options import add_out
+
 NAME = "batch"
 HELP = "batch CASE.toml [CASE.toml ...] [--table PARAMS.csv] -j N --out DIR: runs and a summary CSV"
 
@@ -8,8 +10,7 @@ def configure(p):
     p.add_argument("cases", nargs="+", help="case files (one, with --table)")
     p.add_argument("--table", help="parameter table: CSV of dotted case keys, one run per row")
     p.add_argument("-j", "--jobs", type=int, default=1, help="runs at a time (default 1)")
-    p.add_argument("--out", required=True, help="folder for the runs and batch_summary.csv")
-    p.add_argument("--force", action="store_true", help="replace an existing batch folder")
+    add_out(p, "folder for the runs and batch_summary.csv")
 
 
 def run(args):

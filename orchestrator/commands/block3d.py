@@ -1,4 +1,6 @@
 """`block3d`: the paper's 3D check, a coupled elastic block sheared slowly into a known field."""
+from orchestrator.commands._options import add_out, add_weighting
+
 NAME = "block3d"
 HELP = ("3D check (paper §2): coupled YADE/FE block under a slow simple shear; error of the "
         "bridging spheres' displacements and rotations with and without rotation coupling")
@@ -14,11 +16,8 @@ def configure(p):
     p.add_argument("--layers", type=int, default=2, help="bridging layers (default 2)")
     p.add_argument("--radius", type=float, default=0.003,
                    help="sphere radius in m (default 0.003: the block is 20 radii wide)")
-    p.add_argument("--weighting", choices=("nodal", "consistent"), default="nodal",
-                   help="bridging weights: the paper's nodal ones (default) or energy-consistent "
-                        "ones (cases/block3d.py)")
-    p.add_argument("--out", required=True, help="results folder")
-    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+    add_weighting(p, "nodal")
+    add_out(p, "results folder")
 
 
 def run(args):

@@ -1,5 +1,7 @@
 """`calibrate`: uniaxial compression and tension tests of a CPM packing; fit of the CPM
 micro-parameters to target E, fc (and ν)."""
+from orchestrator.commands._options import add_out
+
 NAME = "calibrate"
 HELP = ("uniaxial tests of a CPM packing (E, ν, fc, ft); fit CPM micro-parameters to target "
         "--young, --fc (--poisson)")
@@ -36,8 +38,7 @@ def configure(p):
     p.add_argument("--max-iter", type=int, default=6, help="fit iterations (default 6)")
     p.add_argument("--seed", type=int, default=1, help="packing seed")
     p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
-    p.add_argument("--out", required=True, help="results folder")
-    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+    add_out(p, "results folder")
 
 
 def run(args):

@@ -1,4 +1,6 @@
 """`compare`: a coupled slab run against a full-YADE run of the same slab."""
+from orchestrator.commands._options import add_out
+
 NAME = "compare"
 HELP = "compare FULL_DIR COUPLED_DIR: sensor histories, damage maps, speed-up"
 
@@ -6,8 +8,7 @@ HELP = "compare FULL_DIR COUPLED_DIR: sensor histories, damage maps, speed-up"
 def configure(p):
     p.add_argument("full_dir")
     p.add_argument("coupled_dir")
-    p.add_argument("--out", required=True, help="folder for comparison.json and plots")
-    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+    add_out(p, "folder for comparison.json and plots")
 
 
 def run(args):

@@ -1,4 +1,6 @@
 """`run`: a coupled case described in a TOML case file (docs/case-files.md)."""
+from orchestrator.commands._options import add_out
+
 NAME = "run"
 HELP = "run CASE.toml [--set key=value ...] [--out DIR]: a case described in a case file"
 
@@ -7,8 +9,7 @@ def configure(p):
     p.add_argument("case", nargs="?", help="case file (TOML; see docs/case-files.md)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a case-file key (TOML value), e.g. --set coupling.relaxation=20")
-    p.add_argument("--out", help="results folder (default: results/<case name>)")
-    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+    add_out(p, "results folder (default: results/<case name>)", required=False)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
     p.add_argument("--resume", metavar="DIR",

@@ -1,4 +1,6 @@
 """`slab`: the paper's slab impact, full YADE or coupled YADE/FEniCSx."""
+from orchestrator.commands._options import add_out, add_weighting
+
 NAME = "slab"
 HELP = "slab impact (paper §5): --model full|coupled --scale small|medium|paper"
 
@@ -10,19 +12,16 @@ def configure(p):
     p.add_argument("--variant", choices=("full", "diagonal"), default="diagonal",
                    help="multiplier solver (default: diagonal)")
     p.add_argument("--relaxation", type=float, default=35.0, help="relaxation r (default 35)")
-    p.add_argument("--weighting", choices=("nodal", "consistent"), default="consistent",
-                   help="bridging energy weights: inside the partners' masses and stiffnesses "
-                        "(default, conservative) or the paper's nodal ones")
+    add_weighting(p, "consistent")
     p.add_argument("--no-rotations", action="store_true", help="couple translations only")
     p.add_argument("--output-every", type=int, default=200, help="steps between ParaView frames")
     p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
     p.add_argument("--checkpoint-every", type=int, default=1000,
                    help="steps between checkpoints (default 1000)")
-    p.add_argument("--out", help="results folder")
     p.add_argument("--resume", metavar="DIR",
                    help="carry on a stopped run from its checkpoint (other options are taken "
                         "from it)")
-    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+    add_out(p, "results folder", required=False)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 

@@ -1,4 +1,6 @@
 """`wave1d`: one run of the 1D spurious-reflection model (paper §4) against its reference."""
+from orchestrator.commands._options import add_out, add_weighting
+
 NAME = "wave1d"
 HELP = "1D spurious reflection at the DE/FE interface (paper §4): one variant vs full Lagrange"
 
@@ -23,11 +25,8 @@ def configure(p):
                    help="FE element length / sphere spacing (default 5)")
     p.add_argument("--dt-safety", type=float, default=0.8,
                    help="time step / the smaller critical step (default 0.8)")
-    p.add_argument("--weighting", choices=("nodal", "consistent"), default="nodal",
-                   help="bridging weights: the paper's nodal ones (default) or energy-consistent "
-                        "(α, β inside the partners' masses and stiffnesses)")
-    p.add_argument("--out", required=True, help="results folder")
-    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+    add_weighting(p, "nodal")
+    add_out(p, "results folder")
 
 
 def run(args):

@@ -1,18 +1,18 @@
 """`wave1d-study`: the sweep of the paper's Figs. 4–7 and the check of the automatic r."""
+from orchestrator.commands._options import add_out, add_weighting
+
 NAME = "wave1d-study"
 HELP = ("1D spurious-reflection sweep: 4 variants x n_b 1-6 x r 1-100 at ratio 5, and the "
         "automatic r at n_b = 3 for ratios 2-8; CSV, tables and figures")
 
 
 def configure(p):
-    p.add_argument("--out", required=True, help="results folder")
-    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+    add_out(p, "results folder")
     p.add_argument("--quick", action="store_true",
                    help="a coarse sweep (n_b 1, 3; 5 values of r; ratios 2, 5, 8) for a check")
     p.add_argument("--dt-safety", type=float, default=0.8,
                    help="time step / the smaller critical step (default 0.8; the slab uses 0.3)")
-    p.add_argument("--weighting", choices=("nodal", "consistent"), default="nodal",
-                   help="bridging weights: the paper's nodal ones (default) or energy-consistent")
+    add_weighting(p, "nodal")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
