@@ -15,26 +15,27 @@ import numpy as np
 from orchestrator.runner import damage_map, read_sensors
 
 SLAB = (2.5, 2.0, 0.28)
-# sphere radius per scale; the FE size is a multiple of the diameter (see SlabSpec)
-SCALES = {"small": 0.025, "medium": 0.02, "paper": 0.0118}
-DEFAULT_STEPS = {"small": 1200, "medium": 1500, "paper": 300}
+# sphere radius per scale: 25,072 spheres in the full medium model, 122,066 at paper scale (the
+# issue's ~25,000 and Table 1's 120,808); the FE size is a multiple of the diameter (SlabSpec)
+SCALES = {"small": 0.025, "medium": 0.0185, "paper": 0.0112}
+# 5 ms after contact at small and medium scale: the far sensors reach their peak (~2.5-4 ms)
+DEFAULT_STEPS = {"small": 3300, "medium": 4400, "paper": 300}
 # FE modulus per scale: the bending modulus of the DE slab it stands for, measured by quasi-static
 # 3-point bending of a strip of the slab's packing against the same strip in FE on the scale's
-# grid (`python3 -m cases.slab_bending --scale S`). 5.6-7 sphere diameters through 0.28 m bend
+# grid (`python3 -m cases.slab_bending --scale S`). 5.6-7.6 sphere diameters through 0.28 m bend
 # like 17-21 GPa, not the 29-31 GPa of their uniaxial test: an FE at 31 GPa made the coupled
-# slab about twice as stiff as the full one. 12 diameters (paper scale) bend like 24.5 GPa.
-FE_YOUNG = {"small": 17.2e9, "medium": 20.9e9, "paper": 24.5e9}
+# slab about twice as stiff as the full one. 12 diameters bend like 24.5 GPa (measured at
+# R = 11.8 mm, not again at the paper scale's 11.2 mm).
+FE_YOUNG = {"small": 17.2e9, "medium": 21.0e9, "paper": 24.5e9}
 # CPM micro-parameters per scale, fitted by `python3 -m orchestrator calibrate --scale S` to
-# E = 31 GPa and fc = 31 MPa on a 0.56 × 0.56 × 0.28 m piece of the slab's packing
-# (docs/calibration.md: E 31.01 / 30.98 / 31.00 GPa, fc 30.98 / 31.08 / 31.12 MPa), and the
-# tensile strength the same test measured (ft, for the post-run check of the FE stresses).
-# FE_YOUNG at small and medium scale was measured with the platform's default set, whose
-# Young's modulus is within 0.2 % of these (small: 17.21 GPa again with this set); paper scale
-# was measured with this set.
-CPM = {"small": dict(young=3.305e10, sigmaT=5.247e6, epsCrackOnset=1.092e-4),
-       "medium": dict(young=3.295e10, sigmaT=4.544e6, epsCrackOnset=9.48e-5),
-       "paper": dict(young=2.843e10, sigmaT=3.460e6, epsCrackOnset=8.367e-5)}
-TENSILE_STRENGTH = {"small": 3.96e6, "medium": 3.37e6, "paper": 3.27e6}
+# E = 31 GPa and fc = 31 MPa on a 0.56 × 0.56 × 0.28 m piece of the slab's packing, with broken
+# links deleted (docs/calibration.md: E 31.02 / 31.00 / 30.98 GPa, fc 30.90 / 31.02 / 30.90
+# MPa), and the tensile strength the same test measured (ft, for the post-run check of the FE
+# stresses). FE_YOUNG is elastic: it does not depend on the strength parameters.
+CPM = {"small": dict(young=3.301e10, sigmaT=5.702e6, epsCrackOnset=1.188e-4),
+       "medium": dict(young=3.137e10, sigmaT=4.375e6, epsCrackOnset=9.561e-5),
+       "paper": dict(young=2.833e10, sigmaT=3.519e6, epsCrackOnset=8.476e-5)}
+TENSILE_STRENGTH = {"small": 4.30e6, "medium": 3.76e6, "paper": 3.14e6}
 # The DE zone spans the slab's whole width (y) where damage reaches its free edges y = 0, 2
 # (small scale: 40 m/s nearly perforates a slab 5.6 sphere diameters thick; docs/slab.md).
 FULL_WIDTH = {"small": True, "medium": False, "paper": False}
@@ -51,6 +52,7 @@ class SlabSpec:
     fe_ratio_thickness: float = 1.5  # FE size through the thickness / sphere diameter
     impactor_side: float = 0.30
     impactor_speed: float = 40.0
+    impactor_gap: float = 0.002      # m the impactor travels before its first contact
     variant: str = "diagonal"
     weighting: str = "consistent"    # or "nodal" (the paper's: not conservative, docs/slab.md)
     relaxation: float = 35.0
@@ -83,6 +85,8 @@ class SlabSpec:
                      "relaxation", "young", "density"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"slab: {name} must be > 0, got {getattr(self, name)!r}")
+        if not self.impactor_gap >= 0:
+            raise ValueError(f"slab: impactor_gap must be >= 0, got {self.impactor_gap!r}")
         if not 0 < self.dt_safety <= 1:
             raise ValueError(f"slab: dt_safety must be in (0, 1], got {self.dt_safety!r}")
         if int(self.steps) != self.steps or self.steps < 1:
@@ -133,33 +137,40 @@ class Packings:
     slab_fraction: float
     impactor_centres: np.ndarray
     impactor_radii: np.ndarray
+    impactor_drop: float  # lowered by this once the cohesive links are made: spec.impactor_gap
 
 
 def make_packings(spec):
+    """The slab's and the impactor's spheres. The impactor sits 1.05 × beyond the reach of the
+    cohesive links made in the first step (1.5 × the sum of radii: no link joins it to the
+    slab); lowered by impactor_drop after that step, it touches the slab after a fall of
+    impactor_gap."""
     from yade_side.packing import dense_box_packing, packing_fraction, sphere_arrays
+    from yade_side.scene import INTERACTION_RADIUS
     slab_c, slab_r = sphere_arrays(dense_box_packing((0, 0, 0), SLAB, spec.radius))
     a = spec.impactor_side
     imp_c, imp_r = sphere_arrays(dense_box_packing((0, 0, 0), (a, a, a), spec.radius, seed=2))
     imp_c = imp_c + [0.5 * (SLAB[0] - a), 0.5 * (SLAB[1] - a), -np.min(imp_c[:, 2])]
-    imp_c[:, 2] += _impactor_height(imp_c, imp_r, slab_c, slab_r)
-    return Packings(slab_c, slab_r, packing_fraction(slab_r, np.prod(SLAB)), imp_c, imp_r)
+    lift = _impactor_height(imp_c, imp_r, slab_c, slab_r, 1.05 * INTERACTION_RADIUS)
+    touch = _impactor_height(imp_c, imp_r, slab_c, slab_r, 1.0)
+    imp_c[:, 2] += lift
+    return Packings(slab_c, slab_r, packing_fraction(slab_r, np.prod(SLAB)), imp_c, imp_r,
+                    lift - touch - spec.impactor_gap)
 
 
-def _impactor_height(imp_c, imp_r, slab_c, slab_r, margin=1.05):
-    """Lift of the impactor (centred over the slab, lowest centre at z = 0) that keeps every
-    impactor-slab pair `margin` × beyond the cohesive-link reach of the first step (1.5 × the
-    sum of radii), and no further: contact starts after a travel of about one radius."""
-    from yade_side.scene import INTERACTION_RADIUS
-    reach_max = margin * INTERACTION_RADIUS * 2 * max(imp_r.max(), slab_r.max())
+def _impactor_height(imp_c, imp_r, slab_c, slab_r, reach):
+    """The lowest lift of the impactor (centred over the slab, lowest centre at z = 0) that
+    keeps every impactor-slab pair at least `reach` × its sum of radii apart."""
+    reach_max = reach * 2 * max(imp_r.max(), slab_r.max())
     lo, hi = imp_c[:, :2].min(axis=0) - reach_max, imp_c[:, :2].max(axis=0) + reach_max
     near = np.all((slab_c[:, :2] > lo) & (slab_c[:, :2] < hi), axis=1)
     near &= slab_c[:, 2] > slab_c[near, 2].max() - reach_max
     low = imp_c[:, 2] < reach_max
     s_c, i_c = slab_c[near], imp_c[low]
-    reach = margin * INTERACTION_RADIUS * (imp_r[low][:, None] + slab_r[near][None, :])
+    pair_reach = reach * (imp_r[low][:, None] + slab_r[near][None, :])
     lateral = np.linalg.norm(i_c[:, None, :2] - s_c[None, :, :2], axis=2)
-    rise = np.sqrt(np.maximum(reach**2 - lateral**2, 0.0))   # vertical centre gap needed
-    rise = np.where(lateral < reach, rise + s_c[None, :, 2] - i_c[:, None, 2], -np.inf)
+    rise = np.sqrt(np.maximum(pair_reach**2 - lateral**2, 0.0))  # vertical centre gap needed
+    rise = np.where(lateral < pair_reach, rise + s_c[None, :, 2] - i_c[:, None, 2], -np.inf)
     return float(rise.max())
 
 
@@ -257,6 +268,7 @@ class SlabModel:
 
         self.slab = BodySet(self.slab_ids)
         self.impactor = BodySet(self.impactor_ids)
+        self.impactor.move(np.array([0.0, 0.0, -packs.impactor_drop]))
         self.impactor.set_velocity(np.array([0.0, 0.0, -spec.impactor_speed]))
         self.damage = LinkDamage(self.slab_ids)
         self.damage.record_initial()

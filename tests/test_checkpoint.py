@@ -54,7 +54,7 @@ def saved(tmp_path_factory):
 
 def test_damage_history_is_restored_bit_for_bit(saved):
     folder, ids, before, _ = saved
-    assert max(v[0] for v in before.values()) > 0.5  # links are damaged (omega)
+    assert any(v[0] > 0 for v in before.values())  # partly damaged links (omega): a history
     load_scene(folder)
     restored = links()
     assert restored.keys() == before.keys()

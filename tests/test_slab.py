@@ -7,7 +7,7 @@ import pytest
 from cases import slab
 from orchestrator.cli import main
 
-STEPS = 550  # contact starts after step ~470 at small scale (dt = 0.15 x PWave)
+STEPS = 150  # contact starts after step ~30 at small scale (dt = 0.15 x PWave)
 
 
 @pytest.fixture(scope="module")
@@ -47,14 +47,15 @@ def test_model_invariants():
     supports hold: supported spheres (full) and the FE support faces (coupled) keep u_z = 0."""
     from yade_side import import_yade
     O = import_yade().Omega()
-    spec = slab.SlabSpec(scale="small", steps=400, dt_safety=0.3)  # contact after step ~235
+    spec = slab.SlabSpec(scale="small", steps=200, dt_safety=0.3, impactor_gap=0.01)
     for model in ("full", "coupled"):
         m = slab.SlabModel(spec, model)
         impactor, slab_ids = set(m.impactor_ids.tolist()), set(m.slab_ids.tolist())
         links = [(i.id1, i.id2) for i in O.interactions if i.phys.isCohesive]
         assert not any((a in impactor) != (b in impactor) for a, b in links)
         p0 = m.impactor.mass @ m.impactor.read()[:, 3:6]
-        for _ in range(100):
+        free_flight = int(spec.impactor_gap / (spec.impactor_speed * m.dt))  # ~80 steps
+        for _ in range(free_flight):
             m.step()
         m.impactor.read()
         assert np.allclose(m.impactor.mass @ m.impactor.vel, p0, rtol=0,
@@ -62,7 +63,7 @@ def test_model_invariants():
         assert np.allclose(m.impactor.vel, [0, 0, -spec.impactor_speed], rtol=0,
                            atol=1e-12 * spec.impactor_speed)
         assert not m.slab.read()[:, 3:6].any(), "slab at rest before contact"
-        for _ in range(spec.steps - 100):
+        for _ in range(spec.steps - free_flight):
             m.step()
         m.slab.read()
         assert np.abs(m.slab.vel).max() > 0, "the impact happened"
@@ -81,15 +82,24 @@ def test_grid_rejects_a_de_zone_that_does_not_fit():
         slab.slab_grid(slab.SlabSpec(scale="small", de_zone=1.8))
 
 
-def test_impactor_starts_just_beyond_the_cohesive_reach():
-    """The closest impactor-slab pair sits 1.05 × the first step's link reach apart (1.5 × the
-    sum of radii; all radii equal here), so contact starts after a travel of about one radius."""
+def test_impactor_starts_beyond_the_link_reach_and_then_just_above_the_slab():
+    """When the links are made, the closest impactor-slab pair sits 1.05 × the link reach apart
+    (1.5 × the sum of radii; all radii equal here); lowered by impactor_drop, the impactor
+    falls exactly impactor_gap before its first sphere touches the slab."""
     from scipy.spatial import cKDTree
     from yade_side.scene import INTERACTION_RADIUS
-    p = slab.make_packings(slab.SlabSpec(scale="small"))
+    spec = slab.SlabSpec(scale="small")
+    p = slab.make_packings(spec)
+    d = 2 * p.slab_radii[0]
     assert np.ptp(np.concatenate([p.slab_radii, p.impactor_radii])) == 0
     gap = cKDTree(p.slab_centres).query(p.impactor_centres)[0].min()
-    assert np.isclose(gap / (2 * p.slab_radii[0]), 1.05 * INTERACTION_RADIUS, rtol=1e-12)
+    assert np.isclose(gap / d, 1.05 * INTERACTION_RADIUS, rtol=1e-12)
+    start = p.impactor_centres - [0, 0, p.impactor_drop]
+    pairs = cKDTree(start[:, :2]).query_ball_tree(cKDTree(p.slab_centres[:, :2]), d)
+    fall = min(start[i, 2] - p.slab_centres[j, 2]
+               - np.sqrt(d**2 - np.sum((start[i, :2] - p.slab_centres[j, :2]) ** 2))
+               for i, near in enumerate(pairs) for j in near if start[i, 2] > p.slab_centres[j, 2])
+    assert np.isclose(fall, spec.impactor_gap, rtol=0, atol=1e-12)
 
 
 def test_full_width_de_zone_is_bounded_along_x_only():

@@ -118,6 +118,13 @@ class BodySet:
             self.state[:, _ORI] = quaternion_product(rotation_quaternion(dtheta), self.ori)
         self.write()
 
+    def move(self, offset):
+        """Translate the set rigidly before a run (ref_pos moves with it)."""
+        self.read()
+        self.state[:, _POS] += offset
+        self.ref_pos += offset
+        self.write()
+
     def set_velocity(self, vel, angvel=None):
         self.read()
         self.state[:, _VEL] = vel

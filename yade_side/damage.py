@@ -2,14 +2,14 @@
 
 Not YADE's numBrokenCohesive (it also counts separating frictional contacts) nor normDmg
 (smeared). Cohesive links are only made on the first step (scene.cpm_engines), so the
-intact cohesive interactions are a subset of the initial ones. A link counts as broken once its CPM damage ω reaches BROKEN_OMEGA or it is gone.
+intact cohesive interactions are a subset of the initial ones. A link counts as broken once
+its CPM damage ω reaches BROKEN_OMEGA, where YADE deletes it (scene.cpm_engines).
 Walking O.interactions costs ~1 µs per entry: call update() every few hundred steps.
 """
 import numpy as np
 
 from yade_side import import_yade
-
-BROKEN_OMEGA = 0.99
+from yade_side.scene import BROKEN_OMEGA
 
 
 class LinkDamage:

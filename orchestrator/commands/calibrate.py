@@ -1,12 +1,11 @@
 """`calibrate`: uniaxial compression and tension tests of a CPM packing; fit of the CPM
 micro-parameters to target E, fc (and ν)."""
+from cases.slab import SCALES
 from orchestrator.commands._options import add_out
 
 NAME = "calibrate"
 HELP = ("uniaxial tests of a CPM packing (E, ν, fc, ft); fit CPM micro-parameters to target "
         "--young, --fc (--poisson)")
-
-SCALE_RADII = {"small": 0.025, "medium": 0.02, "paper": 0.0118}   # cases/slab.py SCALES
 
 
 def configure(p):
@@ -17,7 +16,7 @@ def configure(p):
                    help="target ν (default: keep CpmMat.poisson and report ν)")
     p.add_argument("--density", type=float, default=2400.0, help="bulk density (kg/m³)")
     size = p.add_mutually_exclusive_group()
-    size.add_argument("--scale", choices=tuple(SCALE_RADII), default="small",
+    size.add_argument("--scale", choices=tuple(SCALES), default="small",
                       help="the slab's sphere radius of this scale (default small)")
     size.add_argument("--radius", type=float, help="sphere radius (m)")
     p.add_argument("--size", type=float, nargs=3, default=(0.56, 0.56, 0.28),
@@ -52,7 +51,7 @@ def run(args):
         raise ValueError(f"--tol must be in (0, 1), got {args.tol!r}")
     if args.max_iter < 1:
         raise ValueError(f"--max-iter must be >= 1, got {args.max_iter!r}")
-    radius = args.radius if args.radius is not None else SCALE_RADII[args.scale]
+    radius = args.radius if args.radius is not None else SCALES[args.scale]
     size = cal.check_specimen(radius, args.size)
     target = cal.Target(young=args.young, compressive_strength=args.fc, poisson=args.poisson,
                         density=args.density)
