@@ -132,3 +132,18 @@ def test_consistent_weighting_puts_alpha_and_beta_inside_both_models():
     assert np.allclose(c.de_inv_mass[:3 * c.n], np.repeat(1 / m.bridge.mass, 3), rtol=1e-14)
     with pytest.raises(ValueError, match="weighting must be"):
         slab.SlabSpec(weighting="paper")
+
+
+def test_elastic_outside_keeps_exactly_the_links_outside_the_de_zone_undamageable():
+    from yade_side import import_yade
+    O = import_yade().Omega()
+    spec = slab.SlabSpec(scale="small", elastic_outside=True)
+    with pytest.raises(ValueError, match="full model only"):
+        slab.SlabModel(spec, "coupled")
+    m = slab.SlabModel(spec, "full")
+    links = [i for i in O.interactions if i.isReal and i.phys.isCohesive]
+    mid = np.array([0.5 * (np.array(O.bodies[i.id1].state.refPos)
+                           + np.array(O.bodies[i.id2].state.refPos)) for i in links])
+    outside = m.bridging.zone.depth(mid) > 0
+    assert 0 < outside.sum() < len(links)
+    assert [i.phys.neverDamage for i in links] == outside.tolist()

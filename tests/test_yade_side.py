@@ -5,7 +5,7 @@ import pytest
 from yade_side import import_yade
 from yade_side.bulk import BodySet, quaternion_product, rotation_quaternion
 from yade_side.chain import build_chain
-from yade_side.damage import LinkDamage
+from yade_side.damage import LinkDamage, keep_links_elastic
 from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
 
 yade = import_yade()
@@ -176,6 +176,27 @@ def test_damage_counts_broken_over_initial_links():
         O.step()
     assert dmg.update().tolist() == [0.0, 0.0, 0.5, 1.0]
     assert dmg.broken_links() == 1
+
+
+def test_links_kept_elastic_never_damage():
+    """The same pull with the pulled link (midpoint x = 5 R) kept elastic: no link breaks and
+    that link's damage stays exactly 0; the other links are left as they were."""
+    ids = cluster(n=4)
+    cpm_engines()
+    create_cohesive_links()
+    dmg = LinkDamage(ids)
+    dmg.record_initial()
+    assert keep_links_elastic(lambda p: p[:, 0] > 0.045) == 1
+    for b in O.bodies:
+        b.state.blockedDOFs = "xyzXYZ"
+    O.bodies[int(ids[-1])].state.vel = (10.0, 0, 0)
+    O.dt = 1e-7
+    for _ in range(200):
+        O.step()
+    assert dmg.update().tolist() == [0.0, 0.0, 0.0, 0.0]
+    elastic = {(min(i.id1, i.id2), max(i.id1, i.id2)): i.phys.neverDamage for i in O.interactions}
+    assert elastic == {(ids[0], ids[1]): False, (ids[1], ids[2]): False, (ids[2], ids[3]): True}
+    assert O.interactions[int(ids[2]), int(ids[3])].phys.omega == 0
 
 
 def test_chain_carries_a_long_wave_at_its_link_speed():

@@ -58,3 +58,16 @@ class LinkDamage:
     def broken_links(self):
         """Total broken links (each counted once)."""
         return int(len(self._links) - len(self._cohesive_links(require_intact=True)))
+
+
+def keep_links_elastic(outside):
+    """CpmPhys.neverDamage on every cohesive link whose midpoint satisfies outside(points)
+    (points: (n, 3) initial positions): those links never damage. Returns their number."""
+    O = import_yade().Omega()
+    links = [i for i in O.interactions if i.isReal and i.phys.isCohesive]
+    ref = np.array([[O.bodies[i.id1].state.refPos, O.bodies[i.id2].state.refPos]
+                    for i in links]).reshape(-1, 2, 3)
+    chosen = np.flatnonzero(outside(ref.mean(axis=1)))
+    for k in chosen:
+        links[k].phys.neverDamage = True
+    return len(chosen)

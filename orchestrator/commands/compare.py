@@ -21,7 +21,9 @@ def run(args):
     out = prepare_out(args.out, args.force)
     r = compare(Path(args.full_dir), Path(args.coupled_dir), out)
     for name, s in r["sensors"].items():
-        print(f"{name:14s} peak ratio {s['peak_ratio']}  nRMS {s['nrms']}")
+        print(f"{name:14s} peak ratio {s['peak_ratio']:.3f}  nRMS {s['nrms']:.3f}  peak at "
+              f"{s['peak_time_full_s'] * 1e3:.2f} ms (full), {s['peak_time_coupled_s'] * 1e3:.2f} ms"
+              " (coupled)")
     print(f"damaged volume ratio {r['damage']['damaged_volume_ratio']}, damage-map correlation "
           f"{r['damage']['damage_map_correlation_de_zone']}, speed-up per step "
           f"{r['speedup_per_step']:.2f} (sphere ratio {r['sphere_count_ratio']:.2f})")

@@ -14,6 +14,9 @@ def configure(p):
     p.add_argument("--relaxation", type=float, default=35.0, help="relaxation r (default 35)")
     add_weighting(p, "consistent")
     p.add_argument("--no-rotations", action="store_true", help="couple translations only")
+    p.add_argument("--elastic-outside", action="store_true",
+                   help="full model: links outside the coupled model's DE zone never damage, "
+                        "as the coupled model assumes (compare shows the coupling error alone)")
     p.add_argument("--output-every", type=int, default=200, help="steps between ParaView frames")
     p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
     p.add_argument("--checkpoint-every", type=int, default=1000,
@@ -37,6 +40,7 @@ def run(args):
         spec = slab.SlabSpec(scale=args.scale, steps=args.steps, variant=args.variant,
                              relaxation=args.relaxation, weighting=args.weighting,
                              rotations=not args.no_rotations,
+                             elastic_outside=args.elastic_outside,
                              output_every=args.output_every,
                              checkpoint_every=args.checkpoint_every)
         model = args.model
