@@ -61,7 +61,7 @@ class SlabSpec:
     weighting: str = "consistent"    # or "nodal" (the paper's: not conservative, docs/slab.md)
     elastic_outside: bool = False    # full model: links outside the DE zone never damage, as
                                      # the coupled model assumes (the coupling error alone)
-    relaxation: float = 35.0
+    relaxation: float = 35.0         # or "auto": the rule of the 1D study (docs/wave1d.md)
     rotations: bool = True
     dt_safety: float = 0.15          # × the smaller critical step: at 0.3 the slab's kinetic
                                      # energy grew 20× within 500 steps of a 40 m/s impact (docs)
@@ -89,7 +89,7 @@ class SlabSpec:
         self.full_width = FULL_WIDTH[self.scale] if self.full_width is None else self.full_width
         self.de_zone = DE_ZONE[self.scale] if self.de_zone is None else self.de_zone
         for name in ("radius", "de_zone", "fe_ratio", "fe_ratio_thickness", "impactor_side",
-                     "relaxation", "young", "density"):
+                     "young", "density"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"slab: {name} must be > 0, got {getattr(self, name)!r}")
         if not self.impactor_gap >= 0:
@@ -98,6 +98,13 @@ class SlabSpec:
             raise ValueError(f"slab: dt_safety must be in (0, 1], got {self.dt_safety!r}")
         if int(self.steps) != self.steps or self.steps < 1:
             raise ValueError(f"slab: steps must be a positive integer, got {self.steps!r}")
+        if self.relaxation == "auto":
+            from cases.wave1d import auto_relaxation
+            ratio = slab_grid(self).h / (2 * self.radius)
+            self.relaxation = float(auto_relaxation(ratio, self.layers, self.variant,
+                                                    self.dt_safety))
+        if not self.relaxation > 0:
+            raise ValueError(f"slab: relaxation must be > 0 or 'auto', got {self.relaxation!r}")
 
 
 @dataclass

@@ -353,13 +353,6 @@ def slab_spec(case):
     fields = {k: v for k, v in d["slab"].items() if k != "model"}
     fields.update(d["material"])
     fields.update(d["time"])
-    fields.update({k: v for k, v in d["coupling"].items() if k != "relaxation"})
+    fields.update(d["coupling"])   # relaxation "auto": SlabSpec applies the 1D study's rule
     fields.update({{"every": "output_every"}.get(k, k): v for k, v in d["output"].items()})
-    relaxation = d["coupling"].get("relaxation")
-    spec = slab.SlabSpec(**fields)
-    if relaxation == "auto":
-        ratio = slab.slab_grid(spec).h / (2 * spec.radius)
-        spec.relaxation = auto_relaxation(ratio, spec.layers, spec.variant, spec.dt_safety)
-    elif relaxation is not None:
-        spec.relaxation = relaxation
-    return spec
+    return slab.SlabSpec(**fields)

@@ -147,3 +147,12 @@ def test_elastic_outside_keeps_exactly_the_links_outside_the_de_zone_undamageabl
     outside = m.bridging.zone.depth(mid) > 0
     assert 0 < outside.sum() < len(links)
     assert [i.phys.neverDamage for i in links] == outside.tolist()
+
+
+def test_auto_relaxation_is_the_1d_rule_for_the_slab_grid():
+    from cases.wave1d import auto_relaxation
+    spec = slab.SlabSpec(scale="small", relaxation="auto")
+    ratio = slab.slab_grid(spec).h / (2 * spec.radius)
+    assert spec.relaxation == auto_relaxation(ratio, spec.layers, spec.variant, spec.dt_safety)
+    with pytest.raises(ValueError, match="relaxation"):
+        slab.SlabSpec(scale="small", relaxation=0.0)

@@ -12,3 +12,13 @@ def add_weighting(p, default):
 def add_out(p, what="results folder", required=True):
     p.add_argument("--out", required=required, help=what)
     p.add_argument("--force", action="store_true", help="replace an existing results folder")
+
+
+def relaxation_arg(text):
+    """'auto' or a number (checked >= 1 by the case)."""
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"--relaxation must be a number or 'auto', got {text!r}") from None

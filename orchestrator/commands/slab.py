@@ -1,5 +1,5 @@
 """`slab`: the paper's slab impact, full YADE or coupled YADE/FEniCSx."""
-from orchestrator.commands._options import add_out, add_weighting
+from orchestrator.commands._options import add_out, add_weighting, relaxation_arg
 
 NAME = "slab"
 HELP = "slab impact (paper §5): --model full|coupled --scale small|medium|paper"
@@ -11,7 +11,9 @@ def configure(p):
     p.add_argument("--steps", type=int, help="number of steps (default: per scale)")
     p.add_argument("--variant", choices=("full", "diagonal"), default="diagonal",
                    help="multiplier solver (default: diagonal)")
-    p.add_argument("--relaxation", type=float, default=35.0, help="relaxation r (default 35)")
+    p.add_argument("--relaxation", type=relaxation_arg, default=35.0,
+                   help="relaxation r (default 35, the paper's), or 'auto': the 1D study's rule "
+                        "(docs/wave1d.md)")
     add_weighting(p, "consistent")
     p.add_argument("--no-rotations", action="store_true", help="couple translations only")
     p.add_argument("--elastic-outside", action="store_true",

@@ -1,18 +1,8 @@
 """`wave1d`: one run of the 1D spurious-reflection model (paper §4) against its reference."""
-from orchestrator.commands._options import add_out, add_weighting
+from orchestrator.commands._options import add_out, add_weighting, relaxation_arg
 
 NAME = "wave1d"
 HELP = "1D spurious reflection at the DE/FE interface (paper §4): one variant vs full Lagrange"
-
-
-def relaxation_arg(text):
-    """'auto' or a number (checked >= 1 by the case)."""
-    if text == "auto":
-        return text
-    try:
-        return float(text)
-    except ValueError:
-        raise ValueError(f"--relaxation must be a number or 'auto', got {text!r}") from None
 
 
 def configure(p):
