@@ -62,8 +62,8 @@ class SlabSpec:
                                      # the coupled model assumes (the coupling error alone)
     relaxation: float = 35.0         # or "auto": the rule of the 1D study (docs/wave1d.md)
     rotations: bool = True
-    dt_safety: float = 0.15          # × the smaller critical step: at 0.3 the slab's kinetic
-                                     # energy grew 20× within 500 steps of a 40 m/s impact (docs)
+    dt_safety: float = 0.15          # × the smaller critical step: at 0.3 the slab gains energy
+                                     # and disintegrates under a 40 m/s impact (docs/slab.md)
     steps: int = None                # default: DEFAULT_STEPS[scale]
     sample_every: int = 5            # sensor histories
     check_every: int = 50            # damage, energy and blow-up check
@@ -277,6 +277,7 @@ class SlabModel:
         self.critical = {"de": de_critical, "fe": None if self.fe is None else fe_critical}
         cpm_engines(dt=self.dt)
         create_cohesive_links()
+        self.elastic_links = 0
         if spec.elastic_outside:
             from yade_side.damage import keep_links_elastic
             self.elastic_links = keep_links_elastic(lambda p: self.bridging.zone.depth(p) > 0)
@@ -377,7 +378,8 @@ def run(spec, model, out, quiet=False, resume=False):
     build_s = perf_counter() - t_build
     impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
     info = {"model": model, "spec": asdict(spec), "n_slab_spheres": len(m.slab_ids),
-            "build_s": build_s, "impact_energy_J": impact_energy}
+            "build_s": build_s, "impact_energy_J": impact_energy,
+            "links_kept_elastic": m.elastic_links}
     schedule = runner.Schedule(spec.steps, spec.sample_every, spec.check_every,
                                spec.output_every, spec.checkpoint_every)
     return runner.run(m, m.slab, schedule, out, f"slab {model} ({spec.scale})", impact_energy,

@@ -15,7 +15,7 @@ def add_out(p, what="results folder", required=True):
 
 
 def relaxation_arg(text):
-    """'auto' or a number (checked >= 1 by the case)."""
+    """'auto' or a number (its range is checked by the case)."""
     if text == "auto":
         return text
     try:
