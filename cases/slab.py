@@ -389,10 +389,21 @@ def run(spec, model, out, quiet=False, resume=False):
 
 
 def _post_run_checks(m, damage):
-    """The paper's two checks: the FE stays elastic; the bridging spheres stay undamaged."""
+    """The paper's two checks: the FE stays elastic; the bridging spheres stay undamaged. For
+    the full model, their counterpart: links where the coupled model has its band and FE that
+    passed their tensile strength (ω > 0), which an elastic FE there cannot follow."""
     from orchestrator.runner import post_run_checks
-    return post_run_checks(m.fe, damage[m.bridge_index], m.spec.tensile_strength,
-                           m.spec.compressive_strength)
+    warnings = post_run_checks(m.fe, damage[m.bridge_index], m.spec.tensile_strength,
+                               m.spec.compressive_strength)
+    if m.fe is None and not m.spec.elastic_outside:
+        from yade_side.damage import link_damage
+        omega = link_damage(lambda p: m.bridging.zone.depth(p) > 0)
+        cracked = np.count_nonzero(omega > 0)
+        if cracked:
+            warnings.append(f"{cracked} of the {omega.size} links outside the coupled model's DE "
+                            f"zone are partly damaged (mean ω {omega.mean():.3f}): a coupled "
+                            f"model, elastic there, will be stiffer (docs/slab.md)")
+    return warnings
 
 
 def compare(full_dir, coupled_dir, out):

@@ -5,7 +5,7 @@ import pytest
 from yade_side import import_yade
 from yade_side.bulk import BodySet, quaternion_product, rotation_quaternion
 from yade_side.chain import build_chain
-from yade_side.damage import LinkDamage, keep_links_elastic
+from yade_side.damage import LinkDamage, keep_links_elastic, link_damage
 from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
 
 yade = import_yade()
@@ -176,6 +176,9 @@ def test_damage_counts_broken_over_initial_links():
         O.step()
     assert dmg.update().tolist() == [0.0, 0.0, 0.5, 1.0]
     assert dmg.broken_links() == 1
+    # the broken link is gone (ω > 0.99); the two others were never strained
+    assert link_damage(lambda p: np.ones(len(p), bool)).tolist() == [0.0, 0.0]
+    assert link_damage(lambda p: p[:, 0] > 0.045).size == 0
 
 
 def test_links_kept_elastic_never_damage():

@@ -60,14 +60,27 @@ class LinkDamage:
         return int(len(self._links) - len(self._cohesive_links(require_intact=True)))
 
 
-def keep_links_elastic(outside):
-    """CpmPhys.neverDamage on every cohesive link whose midpoint satisfies outside(points)
-    (points: (n, 3) initial positions): those links never damage. Returns their number."""
+def _links_and_midpoints():
+    """The scene's cohesive links and their midpoints (initial positions, State.refPos)."""
     O = import_yade().Omega()
     links = [i for i in O.interactions if i.isReal and i.phys.isCohesive]
     ref = np.array([[O.bodies[i.id1].state.refPos, O.bodies[i.id2].state.refPos]
                     for i in links]).reshape(-1, 2, 3)
-    chosen = np.flatnonzero(outside(ref.mean(axis=1)))
+    return links, ref.mean(axis=1)
+
+
+def keep_links_elastic(outside):
+    """CpmPhys.neverDamage on every cohesive link whose midpoint satisfies outside(points)
+    ((n, 3) initial positions): those links never damage. Returns their number."""
+    links, mid = _links_and_midpoints()
+    chosen = np.flatnonzero(outside(mid))
     for k in chosen:
         links[k].phys.neverDamage = True
     return len(chosen)
+
+
+def link_damage(where):
+    """CPM damage ω of the cohesive links still in the scene (not yet broken and deleted)
+    whose midpoint satisfies where(points)."""
+    links, mid = _links_and_midpoints()
+    return np.array([links[k].phys.omega for k in np.flatnonzero(where(mid))])
