@@ -160,7 +160,7 @@ def markdown(results):
 NOTES = """## Notes
 
 - The exchange with YADE reads and writes the bridging spheres' state by a numpy
-  gather/scatter in YADE's memory (`yade_side/state_memory.py`): the field offsets are found
+  gather/scatter in YADE's memory (`yade_side/memory.py`): the field offsets are found
   through YADE's own bulk API and every body is checked bit for bit against it before use.
   YADE's `Subdomain.get/setStateValuesFromIds` (last column above, the fallback) converts
   every value through a Python float.

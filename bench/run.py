@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from bench.report import derive, markdown
-from orchestrator.results import write_atomic, write_json
+from common.files import write_json, write_text
 
 ROOT = Path(__file__).resolve().parent.parent
 # (warm-up steps, timed steps) per scale
@@ -97,7 +97,7 @@ def main(argv=None):
         if path.exists():
             print(f"bench: replacing {path}")
     write_json(json_path, results)
-    write_atomic(md_path, markdown(results))
+    write_text(md_path, markdown(results))
     print(f"bench: wrote {json_path} and {md_path} in {info['bench_wall_s'] / 60:.1f} min")
     for goal in results["goals"]:
         print(f"  {'met   ' if goal['met'] else 'MISSED' if goal['met'] is False else 'n/a   '} "

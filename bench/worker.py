@@ -52,11 +52,10 @@ def use_clock(threads):
     time. The models' own time split (CoupledStepper, SlabModel) follows the same clock."""
     global clock
     clock = process_time if threads == 1 else perf_counter
-    import cases.slab
-    import orchestrator.timeloop
-    for module in (cases.slab, orchestrator.timeloop):
-        if hasattr(module, "perf_counter"):
-            module.perf_counter = clock
+    import orchestrator.builder
+    import orchestrator.stepper
+    for module in (orchestrator.builder, orchestrator.stepper):
+        module.perf_counter = clock
 
 
 def output_cost(m, repeat=3):
@@ -147,19 +146,20 @@ def run(task):
 
 def _variant_summary(m, timing):
     return {"coupling_s": timing["split_median_s"]["coupling"],
-            "guarded_rows": getattr(m.stepper.coupling.solver, "guarded_rows", None)}
+            "guarded_rows": m.stepper.coupling.solver.guarded_rows}
 
 
 def _time_variant(m, variant, task):
     """Swap the coupling for another variant and time it; for the full variant also time the
     set-up (assembly of T and its sparse Cholesky factorisation)."""
-    from orchestrator.assembly import make_coupling
-    from orchestrator.multipliers import FullSolver
-    from orchestrator.timeloop import CoupledStepper
+    from dataclasses import replace
+    from orchestrator.builder import CouplingSpec, couple
+    from orchestrator.coupling.multipliers import FullSolver
     spec = m.spec
     t0 = perf_counter()
-    coupling = make_coupling(m.fe, m.bridging, m.bridge, m.dt, variant, spec.relaxation,
-                             spec.rotations)
+    coupling = couple(m.fe, m.bridging, m.bridge, m.dt, replace(CouplingSpec(
+        spec.variant, spec.relaxation, spec.rotations, spec.weighting), variant=variant),
+        spec.relaxation)
     out = {"coupling_setup_s": perf_counter() - t0}
     if variant == "full":
         c = coupling
@@ -167,8 +167,7 @@ def _time_variant(m, variant, task):
             lambda: FullSolver(c.G, c.de_inv_mass, c.fe_inv_mass, c.dt), 3)
         out["backend"] = c.solver.backend
         out["system_size"] = int(np.count_nonzero(c.fe_inv_mass))
-    m.stepper = CoupledStepper(m.O.step, m.bridge, m.fe, coupling)
-    m.seconds = {k: 0.0 for k in m.seconds}
+    m.swap_coupling(coupling)
     timing = timed_steps(m, max(2, task["warmup"] // 4), max(10, task["steps"] // 2))
     out.update(_variant_summary(m, timing))
     out["step_median_s"] = timing["median_s"]

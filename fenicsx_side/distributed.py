@@ -47,6 +47,10 @@ class RankZeroModel:
         if self.rank == 0:
             atexit.register(self.stop)  # however rank 0 ends, the others leave serve()
 
+    @property
+    def distributed(self):
+        return self.comm.size > 1
+
     # --- what rank 0 calls (each is collective) ----------------------------------------------
     def predict(self, dt):
         self._call("predict", dt)

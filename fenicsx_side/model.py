@@ -156,6 +156,11 @@ class ElasticModel:
         self._u[dofs] += du
         self._v[dofs] += du / dt
 
+    @property
+    def distributed(self):
+        """The state is spread over several MPI ranks."""
+        return self.comm.size > 1
+
     def critical_dt(self):
         """2/ω_max of M⁻¹K over the free dofs (lumped mass), from the largest eigenvalue of
         M^-½ K M^-½ (SLEPc's Krylov-Schur, collective), raised by its relative tolerance so
@@ -224,7 +229,7 @@ class ElasticModel:
 
     def point_operators(self, points):
         """(k, h), csr of shape (3n, ndof_global): k u = u(x_j); h u = ½ curl u (x_j)
-        (METHOD.md). Columns are global dofs; under MPI each point is evaluated by the lowest
+        (docs/method.md). Columns are global dofs; under MPI each point is evaluated by the lowest
         rank owning a cell that contains it, and every rank gets the whole operators."""
         points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
         found, cells, X = self._locate_owned(points)

@@ -7,13 +7,14 @@ go to their own HDF5 file in a folder beside the .xdmf index (`fe.xdmf`, `fe/mes
 last, after each frame. A reader, or a run killed at any moment, only ever sees complete
 frames, and a resumed run carries on from a given frame.
 """
-import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import h5py
 import numpy as np
 from dolfinx import cpp, mesh
+
+from common.files import atomic
 
 _TOPOLOGY = {4: ("Tetrahedron", mesh.CellType.tetrahedron),
              8: ("Hexahedron", mesh.CellType.hexahedron)}
@@ -109,14 +110,12 @@ class XdmfSeries:
         """DataItems under each parent for `items` {name: (parent, values)}, the values (and
         the file attributes `attrs`) in folder/file_name, unless already written there."""
         path = self.folder / file_name
-        part = path.with_name(f".{file_name}.part")
         if not written:
-            with h5py.File(part, "w") as f:
+            with atomic(path) as part, h5py.File(part, "w") as f:
                 f.attrs.update(attrs or {})
                 for name, (parent, values) in items.items():
                     f.create_dataset(name, data=values)
                     f[name].attrs["center"] = parent.get("Center", "")
-            os.replace(part, path)
         for name, (parent, values) in items.items():
             item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, values.shape)),
                                  DataType="Int" if np.issubdtype(values.dtype, np.integer)
@@ -125,10 +124,9 @@ class XdmfSeries:
             item.text = f"{self.folder.name}/{file_name}:/{name}"
 
     def _write_index(self):
-        part = self.path.with_name(f".{self.path.name}.part")
         ET.indent(self._xml)
-        ET.ElementTree(self._xml).write(part, xml_declaration=True, encoding="utf-8")
-        os.replace(part, self.path)
+        with atomic(self.path) as part:
+            ET.ElementTree(self._xml).write(part, xml_declaration=True, encoding="utf-8")
 
 
 def _rows(name, values, rows):

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from time import perf_counter
 
-from orchestrator.results import write_atomic
+from common.files import write_text
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
@@ -153,6 +153,6 @@ def write_summary(out, rows):
     writer = csv.DictWriter(text, fieldnames=columns, lineterminator="\n")
     writer.writeheader()
     writer.writerows(rows)
-    write_atomic(Path(out) / "batch_summary.csv", text.getvalue())
+    write_text(Path(out) / "batch_summary.csv", text.getvalue())
     failed = [f"{r['name']}: {r['error']}" for r in rows if r["status"] != "ok"]
-    write_atomic(Path(out) / "failures.txt", "".join(f"{line}\n" for line in failed))
+    write_text(Path(out) / "failures.txt", "".join(f"{line}\n" for line in failed))

@@ -35,9 +35,9 @@ STOPPED = 143
 
 
 def main(argv=None):
-    from orchestrator.diagnostics import BlowUp
-    from orchestrator.restart import Stopped
-    from orchestrator.results import ResultsExist
+    from orchestrator.run.guard import BlowUp
+    from orchestrator.run.restart import Stopped
+    from orchestrator.run.folder import ResultsExist
     from yade_side.checkpoint import CheckpointError
     args = build_parser().parse_args(argv)
     try:

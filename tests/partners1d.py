@@ -1,6 +1,6 @@
 """Pure-numpy stand-ins for the two partners, in 1D along x (test cross-checks only).
 
-They follow the partner protocols of orchestrator.timeloop with 3 dofs per node/sphere, of
+They follow the partner protocols of orchestrator.stepper with 3 dofs per node/sphere, of
 which only x moves: a chain of point masses and springs (the DE side) and a lumped linear
 bar (the FE side).
 """

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from orchestrator.bridging import Bridging, HalfSpaceZone
-from orchestrator.coupling import Coupling
-from orchestrator.timeloop import CoupledStepper
+from orchestrator.coupling.bridging import Bridging, HalfSpaceZone
+from orchestrator.coupling.correction import Coupling
+from orchestrator.stepper import CoupledStepper
 from partners1d import Bar, Chain
 
 E, A, RHO = 30e9, 1e-2, 2400.0

@@ -5,10 +5,10 @@ import pytest
 
 from fenicsx_side.mesh import box_mesh_with_hole
 from fenicsx_side.model import ElasticModel
-from orchestrator.assembly import bridging_spheres, make_coupling
-from orchestrator.bridging import BoxZone, Bridging
-from orchestrator.coupling import Coupling
-from orchestrator.timeloop import CoupledStepper
+from orchestrator.coupling.assembly import bridging_spheres, make_coupling
+from orchestrator.coupling.bridging import BoxZone, Bridging
+from orchestrator.coupling.correction import Coupling
+from orchestrator.stepper import CoupledStepper
 
 H = 0.1  # element size
 

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from orchestrator.bridging import BoxZone, Bridging, HalfSpaceZone
-from orchestrator.coupling import Coupling
-from orchestrator.multipliers import FullSolver, multiplier_matrix
+from orchestrator.coupling.bridging import BoxZone, Bridging, HalfSpaceZone
+from orchestrator.coupling.correction import Coupling
+from orchestrator.coupling.multipliers import FullSolver, multiplier_matrix
 
 EPS = np.finfo(float).eps
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from orchestrator.cli import STOPPED, main
-from orchestrator.runner import read_sensors
+from orchestrator.run.outputs import read_sensors
 from yade_side.output import read_series
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -10,8 +10,9 @@ import meshio
 import numpy as np
 import pytest
 
-from orchestrator.case import CaseModel
-from orchestrator.casefile import CaseError, load
+from cases.generic import CaseModel
+from cases.kinds import load_case as load
+from orchestrator.casefile import CaseError
 from orchestrator.cli import main
 from yade_side.output import read_series
 
@@ -143,9 +144,13 @@ def test_a_gmsh_mesh_gives_the_same_run_as_the_box_it_meshes(tmp_path):
             m.step()
             h.append(m.sensor_displacements())
         histories.append(np.array(h))
+        size = np.abs(m.spheres.ref_pos).max()
     assert masses[0][0] == masses[1][0] and np.isclose(masses[0][1], masses[1][1], rtol=1e-13)
+    # displacement = position − reference: its round-off is that of the positions (~0.6 m),
+    # whatever the displacement's own size; the two meshes number their nodes differently
     scale = np.abs(histories[0]).max()
-    assert scale > 0 and np.allclose(histories[0], histories[1], rtol=0, atol=1e-12 * scale)
+    assert scale > 1e6 * EPS * size
+    assert np.allclose(histories[0], histories[1], rtol=0, atol=8 * EPS * size)
 
 
 def test_a_gmsh_mesh_must_hold_the_de_zone_and_leave_it_out(tmp_path):

@@ -150,7 +150,7 @@ def test_elastic_outside_keeps_exactly_the_links_outside_the_de_zone_undamageabl
 
 
 def test_auto_relaxation_is_the_1d_rule_for_the_slab_grid():
-    from cases.wave1d import auto_relaxation
+    from orchestrator.coupling.relaxation import auto_relaxation
     spec = slab.SlabSpec(scale="small", relaxation="auto")
     ratio = slab.slab_grid(spec).h / (2 * spec.radius)
     assert spec.relaxation == auto_relaxation(ratio, spec.layers, spec.variant, spec.dt_safety)

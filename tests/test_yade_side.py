@@ -76,7 +76,7 @@ def test_direct_and_api_paths_agree_bit_for_bit():
 def test_memory_view_is_refused_when_yade_api_does_not_confirm_it():
     """The direct view is only used when the API's values are found in memory: a `put`
     that writes nothing (so the probe values never appear) gives no view."""
-    from yade_side.state_memory import locate
+    from yade_side.memory import locate
     ids = cluster(n=3)
     subdomain = yade.wrapper.Subdomain()
     assert locate(O, ids, subdomain.getStateValuesFromIds,
@@ -87,7 +87,7 @@ def test_memory_view_is_refused_when_yade_api_does_not_confirm_it():
 def test_memory_view_refuses_a_replaced_scene():
     """After O.reset the located States are no longer simulated: reads and writes stop with
     an error instead of touching them."""
-    from yade_side.state_memory import SceneReplaced, locate
+    from yade_side.memory import SceneReplaced, locate
     ids = cluster(n=3)
     subdomain = yade.wrapper.Subdomain()
     memory = locate(O, ids, subdomain.getStateValuesFromIds, subdomain.setStateValuesFromIds)

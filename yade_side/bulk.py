@@ -2,7 +2,7 @@
 
 One call reads or writes the 13 state values of every body of the set (pos, vel, angVel,
 ori as x, y, z, w): by a numpy gather/scatter in YADE's memory when its layout is verified
-(yade_side.state_memory), else through YADE's C++ `Subdomain.get/setStateValuesFromIds`, which
+(yade_side.memory), else through YADE's C++ `Subdomain.get/setStateValuesFromIds`, which
 works in a plain serial scene. No per-body Python in the time loop either way.
 """
 import array
@@ -11,7 +11,7 @@ import weakref
 import numpy as np
 
 from yade_side import import_yade
-from yade_side.state_memory import locate
+from yade_side.memory import locate
 
 _POS, _VEL, _ANGVEL, _ORI = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 13)
 _LIVE = weakref.WeakSet()  # every BodySet, to reattach after a scene is loaded

@@ -1,6 +1,6 @@
 """Concrete for YADE's CPM model: micro-parameters and the material they make.
 
-The defaults are the calibration measured on this platform (platform notes: quasi-static
+The defaults are a calibration measured with YADE 2023.02a (quasi-static
 uniaxial test of a 60×60×120 mm prism, 1,613 spheres, interaction radius 1.5):
 E ≈ 31.0 GPa, ν ≈ 0.22, fc ≈ 31.1 MPa, ft ≈ 4.0 MPa — the slab's concrete.
 """

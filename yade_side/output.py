@@ -5,12 +5,13 @@ Each file is written under a temporary name and renamed, the index last: ParaVie
 never see a half-written frame. Display with the "Point Gaussian" representation scaled by
 `radius`, or the Glyph filter (sphere, scale by radius).
 """
-import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import meshio
 import numpy as np
+
+from common.files import atomic
 
 
 class SphereSeries:
@@ -40,10 +41,8 @@ class SphereSeries:
         point_data.update({k: np.asarray(v, float) for k, v in fields.items()})
         mesh = meshio.Mesh(np.asarray(centres, float), [("vertex", np.arange(n)[:, None])],
                            point_data=point_data)
-        target = self.path.parent / name
-        part = target.with_name(f".{target.name}.part")
-        meshio.write(part, mesh, file_format="vtu")
-        os.replace(part, target)
+        with atomic(self.path.parent / name) as part:
+            meshio.write(part, mesh, file_format="vtu")
         self.frames.append((float(t), name))
         self._write_index()
 
@@ -52,9 +51,8 @@ class SphereSeries:
         coll = ET.SubElement(root, "Collection")
         for t, name in self.frames:
             ET.SubElement(coll, "DataSet", timestep=repr(t), part="0", file=name)
-        part = self.path.with_name(f".{self.path.name}.part")
-        ET.ElementTree(root).write(part, xml_declaration=True, encoding="utf-8")
-        os.replace(part, self.path)
+        with atomic(self.path) as part:
+            ET.ElementTree(root).write(part, xml_declaration=True, encoding="utf-8")
 
 
 def read_series(path):

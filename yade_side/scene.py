@@ -68,3 +68,11 @@ def cpm_law():
                 if isinstance(law, yade.wrapper.Law2_ScGeom_CpmPhys_Cpm):
                     return law
     return None
+
+
+def block_dofs(ids, dofs):
+    """Hold the degrees of freedom `dofs` (YADE's blockedDOFs letters, e.g. "z") of the bodies
+    `ids` (a support; set once at build time)."""
+    O = import_yade().Omega()
+    for i in ids:
+        O.bodies[int(i)].state.blockedDOFs = dofs

@@ -6,14 +6,14 @@ launcher's namespace (`from yade import *`, `yade.utils`, `yade.pack`, `math`), 
 [script, *args], in a fresh module that becomes `__main__` (YADE runs `PyRunner` commands there).
 While it runs, the calls that would start YADE's own loop or wait for a GUI are neutralised
 (`O.run`, `O.wait`, `waitIfBatch`, `yade.plot.plot`): the caller drives the time loop with
-`O.step()` in its own thread (platform notes: `O.run` steps in a worker thread). `O.step()`
+`O.step()` in its own thread (`O.run` steps in a worker thread, bad for PETSc and MPI). `O.step()`
 calls in the script do run (a script may step once to create its cohesive links).
 
 `prepare_dynamics` then refuses what cannot be coupled (periodic cell, no single
 NewtonIntegrator) and fixes what explicit coupled dynamics needs, with a warning each: no
 numerical damping, fixed time step. `insert_after_newton` puts a Python step right after
 NewtonIntegrator in the engine list: the place where a correction of positions and half-step
-velocities keeps the leap-frog exact (platform notes, way (b)), before any of the script's
+velocities keeps the leap-frog exact (docs/method.md), before any of the script's
 own engines after Newton (recorders, CpmStateUpdater, PyRunners) read the state.
 """
 import builtins

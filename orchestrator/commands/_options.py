@@ -1,5 +1,11 @@
-"""Options several subcommands share."""
-from orchestrator.bridging import WEIGHTINGS
+"""Options several subcommands share, and the options made from a case description's fields
+(cases.slab.SlabSpec, cases.wave1d.Wave1DSpec: their defaults stay in the description)."""
+import argparse
+import tomllib
+from dataclasses import MISSING, fields
+
+from orchestrator.casefile import boolean
+from orchestrator.coupling.bridging import WEIGHTINGS
 
 
 def add_weighting(p, default):
@@ -11,14 +17,39 @@ def add_weighting(p, default):
 
 def add_out(p, what="results folder", required=True):
     p.add_argument("--out", required=required, help=what)
-    p.add_argument("--force", action="store_true", help="replace an existing results folder")
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing results folder of this project")
 
 
-def relaxation_arg(text):
-    """'auto' or a number (its range is checked by the case)."""
-    if text == "auto":
-        return text
+def add_spec_options(p, cls):
+    """One option per case-file field of the description `cls` (`--field-name`); left out,
+    the description's own default applies."""
+    for f in _keyed(cls):
+        m = f.metadata
+        default = "per scale" if f.default is None else f.default
+        text = f"{m['help']} (default: {default})"
+        flag = "--" + f.name.replace("_", "-")
+        if m["kind"] is boolean:
+            p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=text)
+        else:
+            p.add_argument(flag, type=_literal, default=None, metavar=f.name.upper(), help=text)
+
+
+def spec_from_args(cls, args, **values):
+    """An instance of `cls` from the options add_spec_options made (the description checks
+    the values)."""
+    values.update({f.name: getattr(args, f.name) for f in _keyed(cls)
+                   if getattr(args, f.name) is not None})
+    return cls(**values)
+
+
+def _keyed(cls):
+    return [f for f in fields(cls) if "kind" in f.metadata and f.default is not MISSING]
+
+
+def _literal(text):
+    """A number, true/false or a string, as a case file would read it."""
     try:
-        return float(text)
-    except ValueError:
-        raise ValueError(f"--relaxation must be a number or 'auto', got {text!r}") from None
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text

@@ -15,7 +15,7 @@ def configure(p):
 
 def run(args):
     from orchestrator.batch import plan, run_batch
-    from orchestrator.results import prepare_out
+    from orchestrator.run.folder import prepare_out
     jobs = plan(args.cases, args.table)
     out = prepare_out(args.out, args.force)
     rows = run_batch(jobs, out, args.jobs)

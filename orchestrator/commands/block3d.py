@@ -22,7 +22,8 @@ def configure(p):
 
 def run(args):
     from cases.block3d import BlockSpec, ShearCheck, run_shear_check
-    from orchestrator.results import prepare_out, write_atomic, write_json
+    from common.files import write_json, write_text
+    from orchestrator.run.folder import prepare_out
     check = ShearCheck(gamma=args.gamma, ramp_steps=args.ramp_steps, hold_steps=args.hold_steps)
     specs = [BlockSpec(variant=v, relaxation=r, rotations=rot, layers=args.layers,
                        weighting=args.weighting, radius=args.radius)
@@ -47,7 +48,7 @@ def run(args):
     write_json(out / "check.json", {"check": vars(check), "layers": args.layers,
                                     "radius": args.radius,
                                     "weighting": args.weighting, "rows": rows})
-    write_atomic(out / "table.md", _table(rows))
+    write_text(out / "table.md", _table(rows))
     _plot(out / "block3d.png", runs)
     print(f"results in {out}")
     return 0
@@ -68,6 +69,7 @@ def _plot(path, runs):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from common.files import save_figure
     import numpy as np
     fig, axes = plt.subplots(1, len(runs), figsize=(4 * len(runs), 3.6), sharey=True)
     for ax, (spec, r) in zip(np.atleast_1d(axes), runs):
@@ -83,5 +85,4 @@ def _plot(path, runs):
         ax.legend(fontsize=7)
     np.atleast_1d(axes)[0].set_ylabel("sphere rotation ω_x / exact")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110)

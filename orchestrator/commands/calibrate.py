@@ -42,7 +42,8 @@ def configure(p):
 
 def run(args):
     from dataclasses import asdict, replace
-    from orchestrator.results import prepare_out, write_json
+    from common.files import write_json
+    from orchestrator.run.folder import prepare_out
     from yade_side import calibration as cal
     from yade_side.material import ConcreteParams
 
@@ -102,8 +103,7 @@ def plot_curves(path, compression, tension, macro, radius):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from orchestrator.results import write_atomic
-    import io
+    from common.files import save_figure
     fig, ax = plt.subplots(figsize=(6, 4.5))
     for run, colour in ((compression, "C0"), (tension, "C3")):
         ax.plot(-1e3 * run["strain"], -1e-6 * run["stress"], colour, label=f"{run['mode']} (ends)")
@@ -116,7 +116,5 @@ def plot_curves(path, compression, tension, macro, radius):
     ax.set_title(f"R = {radius} m: E = {macro['E'] / 1e9:.1f} GPa, ν = {macro['nu']:.2f}, "
                  f"fc = {macro['fc'] / 1e6:.1f} MPa, ft = {macro['ft'] / 1e6:.2f} MPa", fontsize=9)
     ax.legend(fontsize=8)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120, bbox_inches="tight")
-    plt.close(fig)
-    write_atomic(path, buf.getvalue(), mode="wb")
+    fig.tight_layout()
+    save_figure(fig, path)

@@ -14,7 +14,7 @@ def configure(p):
 def run(args):
     from pathlib import Path
     from cases.slab import compare
-    from orchestrator.results import prepare_out
+    from orchestrator.run.folder import prepare_out
     for d in (args.full_dir, args.coupled_dir):
         if not (Path(d) / "summary.json").is_file():
             raise FileNotFoundError(f"{d} is not a slab results folder (no summary.json)")

@@ -18,14 +18,13 @@ def configure(p):
 
 def run(args):
     from pathlib import Path
-    from orchestrator.case import run_case
-    from orchestrator.casefile import load
-    from orchestrator.results import check_out
+    from cases.kinds import load_case as load, run_case
+    from orchestrator.run.folder import check_out
     if args.resume:
         if args.case or args.set or args.out:
             raise ValueError("--resume DIR takes the case, its settings and the folder from DIR: "
                              "give no case file, --set or --out with it")
-        from orchestrator.restart import read_meta
+        from orchestrator.run.restart import read_meta
         out = Path(args.resume)
         read_meta(out)                        # a clear error if there is no checkpoint
         case = load(out / "case.toml")

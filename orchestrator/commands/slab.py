@@ -1,28 +1,17 @@
-"""`slab`: the paper's slab impact, full YADE or coupled YADE/FEniCSx."""
-from orchestrator.commands._options import add_out, add_weighting, relaxation_arg
+"""`slab`: the paper's slab impact, full YADE or coupled YADE/FEniCSx. Every option but the
+model, threads and folders is a field of cases.slab.SlabSpec, which holds the defaults."""
+from orchestrator.commands._options import add_out, add_spec_options, spec_from_args
 
 NAME = "slab"
 HELP = "slab impact (paper §5): --model full|coupled --scale small|medium|paper"
 
 
 def configure(p):
-    p.add_argument("--model", choices=("full", "coupled"), default="coupled")
-    p.add_argument("--scale", choices=("small", "medium", "paper"), default="small")
-    p.add_argument("--steps", type=int, help="number of steps (default: per scale)")
-    p.add_argument("--variant", choices=("full", "diagonal"), default="diagonal",
-                   help="multiplier solver (default: diagonal)")
-    p.add_argument("--relaxation", type=relaxation_arg, default=35.0,
-                   help="relaxation r (default 35, the paper's), or 'auto': the 1D study's rule "
-                        "(docs/wave1d.md)")
-    add_weighting(p, "consistent")
-    p.add_argument("--no-rotations", action="store_true", help="couple translations only")
-    p.add_argument("--elastic-outside", action="store_true",
-                   help="full model: links outside the coupled model's DE zone never damage, "
-                        "as the coupled model assumes (compare shows the coupling error alone)")
-    p.add_argument("--output-every", type=int, default=200, help="steps between ParaView frames")
+    from cases.slab import MODELS, SlabSpec
+    p.add_argument("--model", choices=MODELS, default="coupled",
+                   help="full: the whole slab in spheres; coupled (default): DE zone + FE")
+    add_spec_options(p, SlabSpec)
     p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
-    p.add_argument("--checkpoint-every", type=int, default=1000,
-                   help="steps between checkpoints (default 1000)")
     p.add_argument("--resume", metavar="DIR",
                    help="carry on a stopped run from its checkpoint (other options are taken "
                         "from it)")
@@ -33,19 +22,13 @@ def configure(p):
 def run(args):
     from mpi4py import MPI
     from cases import slab
-    from orchestrator.results import prepare_out
+    from orchestrator.run.folder import prepare_out
     if args.resume:
-        from orchestrator.restart import read_meta
+        from orchestrator.run.restart import read_meta
         info = read_meta(args.resume)["info"]
         spec, model, args.out = slab.SlabSpec(**info["spec"]), info["model"], args.resume
     elif args.out:
-        spec = slab.SlabSpec(scale=args.scale, steps=args.steps, variant=args.variant,
-                             relaxation=args.relaxation, weighting=args.weighting,
-                             rotations=not args.no_rotations,
-                             elastic_outside=args.elastic_outside,
-                             output_every=args.output_every,
-                             checkpoint_every=args.checkpoint_every)
-        model = args.model
+        spec, model = spec_from_args(slab.SlabSpec, args), args.model
     else:
         raise ValueError("give --out DIR for a new run, or --resume DIR")
     comm = MPI.COMM_WORLD
@@ -55,7 +38,8 @@ def run(args):
             raise ValueError(f"--model {model} has no FE part: run it without mpirun")
         if comm.rank > 0:
             from fenicsx_side.distributed import serve
-            serve(slab.fe_model(spec, slab.slab_grid(spec)))
+            grid = slab.slab_grid(spec)
+            serve(slab.fe_model(spec, grid, slab.fe_weight(spec, grid)))
             return 0
     from pathlib import Path
     from yade_side import import_yade

@@ -19,7 +19,7 @@ def configure(p):
 def run(args):
     import numpy as np
     from cases import wave1d
-    from orchestrator.results import prepare_out
+    from orchestrator.run.folder import prepare_out
     options = dict(dt_safety=args.dt_safety, weighting=args.weighting)
     if args.quick:
         cases = wave1d.study_cases(layers=(1, 3), relaxations=tuple(np.logspace(0, 2, 5)),

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrator.results import write_json
+from common.files import save_npz, write_json
 
 CHECKPOINT = "checkpoint"
 
@@ -50,12 +50,6 @@ def fingerprint(model, title, steps):
             "n_bridging_spheres": int(len(model.bridge_index))}
 
 
-def supported(model):
-    """Checkpoints need the FE state on this process: not under MPI."""
-    comm = getattr(model.fe, "comm", None)
-    return comm is None or comm.size == 1
-
-
 def save(out, record, model, meta, seconds):
     """Write the checkpoint of step record.n into out/checkpoint, atomically; `seconds`: the
     run's time split so far."""
@@ -72,11 +66,11 @@ def save(out, record, model, meta, seconds):
              "wall_s": record.wall_s}
     if model.fe is not None:
         state.update(fe_u=model.fe.u, fe_v=model.fe.v, fe_t=model.fe.t)
-    stepper = getattr(model, "stepper", None)
+    stepper = model.stepper
     if stepper is not None:
         state.update(rotation=stepper.bridge.rotation, rotation_pred=stepper.bridge.rotation_pred,
                      **{f"exchange_{k}": v for k, v in stepper.exchange.state().items()})
-    np.savez(new / "state.npz", **state)
+    save_npz(new / "state.npz", **state)
     write_json(new / "meta.json", {**meta, "step": record.n, "seconds": seconds})
     if final.exists():
         final.rename(old)
@@ -112,7 +106,7 @@ def load(out, model, meta):
     load_scene(folder / "yade")
     if model.fe is not None:
         model.fe.u, model.fe.v, model.fe.t = state["fe_u"], state["fe_v"], float(state["fe_t"])
-    stepper = getattr(model, "stepper", None)
+    stepper = model.stepper
     if stepper is not None:
         stepper.bridge.rotation[:] = state["rotation"]
         stepper.bridge.rotation_pred[:] = state["rotation_pred"]

@@ -1,8 +1,8 @@
 """Assembling a coupling from the two partners: which spheres are coupled, the weights, the
-operators, the common time step. Duck-typed on the partners (see orchestrator.timeloop)."""
+operators, the common time step. Duck-typed on the partners (orchestrator.contracts)."""
 import numpy as np
 
-from orchestrator.coupling import Coupling
+from orchestrator.coupling.correction import Coupling
 
 
 def bridging_spheres(bridging, centres, tol=0.0):
@@ -10,21 +10,26 @@ def bridging_spheres(bridging, centres, tol=0.0):
     return np.flatnonzero(bridging.contains(np.asarray(centres, float), tol))
 
 
-def common_time_step(safety, de_critical, fe_critical):
-    """safety × the smaller critical step; both partners must be stable alone."""
-    if not 0 < safety <= 1:
-        raise ValueError(f"time step safety factor must be in (0, 1], got {safety!r}")
+def time_step(de_critical, fe_critical, safety=None, dt=None, source="dt"):
+    """The common time step: `dt` if given (set by `source`), else safety × the smaller
+    critical step; both partners must be stable alone. ValueError, one line per problem."""
+    problems = []
     for name, value in (("DE", de_critical), ("FE", fe_critical)):
         if not value > 0:
-            raise ValueError(f"{name} critical time step must be > 0, got {value!r}")
-    return safety * min(de_critical, fe_critical)
-
-
-def check_time_step(dt, de_critical, fe_critical):
+            problems.append(f"{name} critical time step must be > 0, got {value!r}")
+    if dt is None:
+        if not (safety is not None and 0 < safety <= 1):
+            problems.append(f"time step safety factor must be in (0, 1], got {safety!r}")
+        if problems:
+            raise ValueError("\n".join(problems))
+        return safety * min(de_critical, fe_critical)
     for name, value in (("DE", de_critical), ("FE", fe_critical)):
         if dt > value:
-            raise ValueError(f"time step {dt:.4g} s exceeds the {name} critical step "
-                             f"{value:.4g} s: the run would blow up")
+            problems.append(f"{source} = {dt:.4g} s: above the {name} critical step "
+                            f"{value:.4g} s (the run would blow up)")
+    if problems:
+        raise ValueError("\n".join(problems))
+    return dt
 
 
 def make_coupling(fe, bridging, bridge, dt, variant="full", relaxation=1.0, rotations=True,

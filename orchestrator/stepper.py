@@ -1,17 +1,15 @@
 """The coupled time step, with the time split between the partners.
 
-Partners (duck-typed, see yade_side.bulk.BodySet and fenicsx_side.model.ElasticModel):
 - `de_step()`: advances every sphere one step alone (YADE's O.step(): Newton = central
   differences, so the positions it leaves are the predictor);
-- `bridge`: the bridging spheres, `predict(dt)` (reads them), `displacement()`,
-  `rotation_pred`, `correct(dd, dw, dt)`;
-- `fe`: `predict(dt)`, `u`, `correct(dofs, du, dt)`.
+- `bridge`: the coupled spheres (orchestrator.contracts.SphereSet);
+- `fe`: the FE partner (orchestrator.contracts.FEPartner).
 Corrections go to positions and half-step velocities together, so both stay exact
-central-difference updates (METHOD.md, eqs. 15–17).
+central-difference updates (docs/method.md, eqs. 15–17).
 """
 from time import perf_counter
 
-from orchestrator.diagnostics import ExchangeMeter
+from orchestrator.coupling.exchange import ExchangeMeter
 
 
 class CoupledStepper:

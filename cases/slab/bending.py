@@ -1,4 +1,4 @@
-"""The FE modulus that bends like the DE slab: `python3 -m cases.slab_bending --scale small`.
+"""The FE modulus that bends like the DE slab: `python3 -m cases.slab.bending --scale small`.
 
 A strip of the slab's own packing (0.3 m wide along y, the whole span and thickness) is loaded
 quasi-statically in 3-point bending: supports as in the full model (spheres within 2 R of the
@@ -7,7 +7,7 @@ mid-span, links kept undamaged (CpmPhys.neverDamage), Cundall damping until the 
 deflection settles. The same strip in FE on the scale's grid (same supports, the same point
 forces through the coupling operator k) gives the deflection of a 31 GPa continuum; the FE is
 linear, so E_eff = 31 GPa × w_FE / w_DE is the FE modulus that bends like the spheres
-(cases/slab.py FE_YOUNG, docs/slab.md).
+(cases/slab/spec.py SCALES, docs/slab.md).
 """
 import argparse
 import json
@@ -27,7 +27,7 @@ def de_deflection(spec, load, tol=2e-4, chunk=500, max_chunks=60):
     from yade_side.bulk import BodySet
     from yade_side.material import cpm_material
     from yade_side.packing import add_spheres
-    from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
+    from yade_side.scene import block_dofs, cpm_engines, create_cohesive_links, reset_scene
     O = import_yade().Omega()
     packs = slab.make_packings(spec)
     c, r = _strip(packs.slab_centres, packs.slab_radii)
@@ -38,8 +38,7 @@ def de_deflection(spec, load, tol=2e-4, chunk=500, max_chunks=60):
     for i in O.interactions:
         i.phys.neverDamage = True
     newton.damping = 0.5
-    for i in ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)]:
-        O.bodies[int(i)].state.blockedDOFs = "z"
+    block_dofs(ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)], "z")
     top = _top(c, r)
     for i in ids[top]:
         O.forces.setPermF(int(i), (0, 0, -load / top.sum()))

@@ -1,4 +1,4 @@
-"""One coupling correction per time step (METHOD.md, eqs. 14–28 and 33–35).
+"""One coupling correction per time step (docs/method.md, eqs. 14–28 and 33–35).
 
 Both partners first advance alone (the predictor: α and β cancel there). Given the predicted
 displacements and rotations of the bridging spheres and the predicted FE displacement, the
@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from orchestrator.multipliers import DiagonalSolver, FullSolver, lumping_ratio
+from orchestrator.coupling.multipliers import DiagonalSolver, FullSolver, lumping_ratio
 
 VARIANTS = ("full", "diagonal")
 
@@ -46,7 +46,7 @@ class Correction:
 class Coupling:
     """Bridging-domain coupling of n spheres to an FE field of `fe_mass.size` dofs.
 
-    k, h: (3n, ndof) sparse operators of METHOD.md (h may be None when rotations are off);
+    k, h: (3n, ndof) sparse operators of docs/method.md (h may be None when rotations are off);
     de_mass, de_inertia, beta: (n,); fe_mass, fe_alpha: (ndof,) lumped mass and α per dof;
     fe_fixed: (ndof,) mask of Dirichlet dofs; dt: the common time step.
     """

@@ -3,7 +3,7 @@
 The DE zone is where only spheres live; the bridging domain is the band of `n_b` FE element
 layers just outside it, of width `n_b · h`. A zone gives each point its depth `s` out of the
 DE zone (s < 0 inside it): α rises linearly from 0 at s = 0 to 1 at s = width, β = 1 − α,
-both clamped to at least 0.01 because the corrector divides by them (METHOD.md, eq. 2).
+both clamped to at least 0.01 because the corrector divides by them (docs/method.md, eq. 2).
 """
 import numpy as np
 
@@ -75,6 +75,10 @@ class Bridging:
     def beta(self, x):
         """DE weight at points x: 1 inside the DE zone."""
         return np.maximum(1.0 - self._ramp(x), WEIGHT_FLOOR)
+
+    def covers(self, x):
+        """Mask of the points of a coupled model's DE part: the DE zone and the band."""
+        return self.zone.depth(x) <= self.width
 
     def contains(self, x, tol=0.0):
         """Mask of the points in the bridging domain (0 ≤ s ≤ width, widened by tol)."""

@@ -1,0 +1,131 @@
+"""The schema of generic case files (docs/case-files.md): a DE part (built-in packings or a
+user's YADE script), an FE mesh (box or gmsh), the DE zone and the coupling, time, sensors,
+output; and the checks that need several keys at once."""
+import math
+
+import numpy as np
+
+from orchestrator.casefile import (CASE, FACES, OUTPUT, REQUIRED, UNSET, Key, at_least_one,
+                                   axes, boolean, choice, components, divisions, integer,
+                                   non_negative, number, poisson_range, positive, relaxation,
+                                   safety_range, string, strings, vector)
+from orchestrator.coupling.bridging import WEIGHTINGS
+
+MATERIAL = {
+    "young": Key(number, 31e9, positive), "poisson": Key(number, 0.2, poisson_range),
+    "density": Key(number, 2400.0, positive),
+    "compressive_strength": Key(number, 31e6, positive),
+    "tensile_strength": Key(number, 4.0e6, positive),
+}
+CPM = {name: Key(number, UNSET, positive) for name in
+       ("young", "poisson", "frictionAngle", "sigmaT", "epsCrackOnset", "relDuctility")}
+PACKING = {"name": Key(string, UNSET), "lo": Key(vector, REQUIRED), "hi": Key(vector, REQUIRED),
+           "radius": Key(number, REQUIRED, positive), "seed": Key(integer, 1, non_negative),
+           "velocity": Key(vector, [0.0, 0.0, 0.0])}
+DIRICHLET = {"face": Key(choice(*FACES), REQUIRED), "components": Key(components, REQUIRED)}
+SENSOR = {"name": Key(string, REQUIRED), "point": Key(vector, UNSET),
+          "sphere": Key(integer, UNSET, non_negative), "on": Key(choice("auto", "de", "fe"), "auto")}
+
+GENERIC = {
+    "case": CASE,
+    "de": {"script": Key(string, UNSET), "script_args": Key(strings, []),
+           "packing": [PACKING]},
+    "material": dict(MATERIAL, cpm=CPM),
+    "fe": {"mesh": Key(string, "box"), "lo": Key(vector, UNSET), "hi": Key(vector, UNSET),
+           "n": Key(divisions, UNSET), "cell": Key(choice("hexahedron", "tetrahedron"), "hexahedron"),
+           "dirichlet": [DIRICHLET]},
+    "coupling": {"zone_lo": Key(vector, REQUIRED), "zone_hi": Key(vector, REQUIRED),
+                 "zone_axes": Key(axes, [0, 1]), "layers": Key(integer, 3, at_least_one),
+                 "element_size": Key(number, UNSET, positive),
+                 "variant": Key(choice("full", "diagonal"), "diagonal"),
+                 "relaxation": Key(relaxation, "auto", positive),
+                 "rotations": Key(boolean, True),
+                 "weighting": Key(choice(*WEIGHTINGS), "consistent")},
+    "time": {"dt_safety": Key(number, 0.3, safety_range), "dt": Key(number, UNSET, positive),
+             "duration": Key(number, UNSET, positive), "steps": Key(integer, UNSET, at_least_one)},
+    "sensors": [SENSOR],
+    "output": OUTPUT,
+}
+
+
+def check(d, folder, problems):
+    """Consistency of a generic case: one DE model, a usable mesh, a zone inside it."""
+    de, fe, cp, time = d["de"], d["fe"], d["coupling"], d["time"]
+    if ("script" in de) == bool(de["packing"]):
+        problems.append("de: give either de.script (a YADE script) or [[de.packing]] boxes, "
+                        f"not {'both' if 'script' in de else 'neither'}")
+    if "script" in de:
+        de["script"] = _existing(folder, de["script"], "de.script", problems)
+        for key in d["material"]["cpm"]:
+            problems.append(f"material.cpm.{key}: only for built-in packings (the script "
+                            f"makes its own materials)")
+    for i, p in enumerate(de["packing"]):
+        _box_order(p["lo"], p["hi"], f"de.packing[{i}]", problems)
+    _box_order(cp["zone_lo"], cp["zone_hi"], "coupling.zone", problems, cp["zone_axes"])
+    if ("duration" in time) == ("steps" in time):
+        problems.append("time: give either time.duration (s) or time.steps, not "
+                        f"{'both' if 'steps' in time else 'neither'}")
+    for i, s in enumerate(d["sensors"]):
+        if ("point" in s) == ("sphere" in s):
+            problems.append(f"sensors[{i}] ({s['name']!r}): give either point or sphere")
+        elif "sphere" in s and s["on"] == "fe":
+            problems.append(f"sensors[{i}].on = 'fe': a sphere sensor is on the DE side")
+    names = [s["name"] for s in d["sensors"]]
+    for n in sorted({n for n in names if names.count(n) > 1}):
+        problems.append(f"sensors: two sensors are named {n!r}")
+    if fe["mesh"] == "box":
+        missing = [k for k in ("lo", "hi", "n") if k not in fe]
+        if missing:
+            problems.append(f"fe.mesh = 'box' needs fe.{', fe.'.join(missing)}")
+            return
+        if _box_order(fe["lo"], fe["hi"], "fe", problems):
+            _zone_on_box(fe, cp, problems)
+    else:
+        for k in ("lo", "hi", "n"):
+            if k in fe:
+                problems.append(f"fe.{k}: only for fe.mesh = 'box' (the mesh is {fe['mesh']!r})")
+        fe["mesh"] = _existing(folder, fe["mesh"], "fe.mesh", problems)
+        if "element_size" not in cp:
+            problems.append("coupling.element_size: required with a gmsh mesh (the bridging "
+                            "width is layers × element_size)")
+
+
+def _existing(folder, name, key, problems):
+    path = (folder / name).resolve()
+    if not path.is_file():
+        problems.append(f"{key} = {name!r}: file {path} not found")
+    return str(path)
+
+
+def _box_order(lo, hi, key, problems, axes=(0, 1, 2)):
+    bad = [a for a in axes if not hi[a] > lo[a]]
+    if bad:
+        problems.append(f"{key}: hi {hi} must exceed lo {lo} along axis {bad[0]}")
+    return not bad
+
+
+def _zone_on_box(fe, cp, problems):
+    """The DE zone is cut out of the box mesh: inside it, on its grid planes, and with room
+    for the bridging layers; the bridging width defaults to layers × element size."""
+    lo, hi, n = np.array(fe["lo"]), np.array(fe["hi"]), np.array(fe["n"])
+    h = (hi - lo) / n
+    axes = cp["zone_axes"]
+    for bound in ("zone_lo", "zone_hi"):
+        z = np.array(cp[bound])
+        for a in axes:
+            if not lo[a] <= z[a] <= hi[a]:
+                problems.append(f"coupling.{bound}[{a}] = {z[a]!r}: the DE zone is outside the "
+                                f"mesh, which spans [{lo[a]!r}, {hi[a]!r}] along axis {a}")
+                continue
+            i = (z[a] - lo[a]) / h[a]
+            if abs(i - round(i)) > 1e-9:
+                problems.append(f"coupling.{bound}[{a}] = {z[a]!r}: not on a grid plane of the "
+                                f"box mesh (nearest: {lo[a] + math.floor(i) * h[a]!r}, "
+                                f"{lo[a] + math.ceil(i) * h[a]!r})")
+    if "element_size" not in cp:
+        sizes = {round(h[a], 12) for a in axes}
+        if len(sizes) > 1:
+            problems.append(f"coupling.element_size: required, the box's elements differ along "
+                            f"the zone axes {axes} (sizes {sorted(sizes)})")
+            return
+        cp["element_size"] = float(h[axes[0]])

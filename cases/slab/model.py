@@ -1,0 +1,185 @@
+"""The slab impact (the paper's §5): a concrete cube of spheres hits a simply supported slab.
+
+One description, two models:
+- full: the whole slab in spheres (YADE alone);
+- coupled: spheres in a central DE zone through the thickness plus a bridging band of
+  `layers` FE element layers around it; FE (dolfinx) everywhere outside the DE zone.
+Both models take their slab spheres from the same packing of the whole slab, so the DE
+zone's micro-structure is the same in both and damage maps compare sphere by sphere.
+"""
+from dataclasses import asdict
+from time import perf_counter
+
+import numpy as np
+
+from cases.slab.geometry import make_packings, sensor_points, slab_bridging, slab_grid
+from cases.slab.spec import SLAB
+from orchestrator.builder import CouplingSpec, Description, Model, assemble
+
+MODELS = ("full", "coupled")
+
+
+def concrete(spec):
+    """The slab's CPM parameters: the calibrated set of its scale, its bulk density."""
+    from yade_side.material import ConcreteParams
+    return ConcreteParams(density=spec.density, **spec.cpm)
+
+
+def fe_weight(spec, grid):
+    """α inside the FE model (the consistent weighting), else None."""
+    return slab_bridging(spec, grid).alpha if spec.weighting == "consistent" else None
+
+
+def fe_model(spec, grid, weight):
+    """The coupled model's FE part: the slab less the DE zone, its x = 0 and x = 2.5 faces held
+    in z (simple supports); `weight`: α inside stiffness and mass (or None). Collective under
+    MPI: every rank builds it."""
+    from fenicsx_side.mesh import box_mesh_with_hole
+    from fenicsx_side.model import ElasticModel, face
+    msh = box_mesh_with_hole((0, 0, 0), SLAB, grid.n, grid.hole_lo, grid.hole_hi)
+    supports = [(face(0, 0.0), (2,)), (face(0, SLAB[0]), (2,))]
+    return ElasticModel(msh, spec.young, spec.poisson, spec.density, supports, weight=weight)
+
+
+class SlabScene:
+    """The YADE scene of the slab (orchestrator.contracts.DEScene): the slab's spheres (all, or
+    those a coupled model keeps), the impactor, and for the full model the supports."""
+    time_step = (None, "")
+
+    def __init__(self, spec, bridging):
+        self.spec, self.bridging = spec, bridging
+        self.packs = make_packings(spec)
+        self.elastic_links = 0
+
+    def place(self, keep):
+        from yade_side.material import cpm_material
+        from yade_side.packing import add_spheres
+        from yade_side.scene import reset_scene
+        p = self.packs
+        self.slab_index = (np.arange(len(p.slab_radii)) if keep is None
+                           else np.flatnonzero(keep(p.slab_centres)))
+        reset_scene()
+        mat = cpm_material(concrete(self.spec), p.slab_fraction)
+        self.slab_ids = add_spheres(p.slab_centres[self.slab_index],
+                                    p.slab_radii[self.slab_index], mat)
+        self.impactor_ids = add_spheres(p.impactor_centres, p.impactor_radii, mat)
+        self.support_ids = np.empty(0, int)
+        if keep is None:        # simple supports: spheres touching x = 0 and x = 2.5 hold z
+            from yade_side.scene import block_dofs
+            c, r = p.slab_centres, p.slab_radii
+            self.support_ids = self.slab_ids[(c[:, 0] < 2 * r) | (c[:, 0] > SLAB[0] - 2 * r)]
+            block_dofs(self.support_ids, "z")
+        return self.slab_ids
+
+    def critical_dt(self, beta):
+        from yade import utils
+        return utils.PWaveTimeStep()
+
+    def start(self, dt):
+        """Engines and links; then the impactor is lowered to just above the slab and set
+        moving (it was made beyond the links' reach)."""
+        from yade_side.bulk import BodySet
+        from yade_side.scene import cpm_engines, create_cohesive_links
+        cpm_engines(dt=dt)
+        create_cohesive_links()
+        if self.spec.elastic_outside:
+            from yade_side.damage import keep_links_elastic
+            self.elastic_links = keep_links_elastic(lambda p: self.bridging.zone.depth(p) > 0)
+        self.impactor = BodySet(self.impactor_ids)
+        self.impactor.move(np.array([0.0, 0.0, -self.packs.impactor_drop]))
+        self.impactor.set_velocity(np.array([0.0, 0.0, -self.spec.impactor_speed]))
+        return True
+
+    def attach(self, couple):
+        return False
+
+
+def description(spec, model):
+    """The builder's description of the slab's `model` (full or coupled)."""
+    if model not in MODELS:
+        raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
+    if spec.elastic_outside and model != "full":
+        raise ValueError("elastic_outside applies to the full model only (the coupled "
+                         "model has FE outside its DE zone)")
+    grid = slab_grid(spec)
+    bridging = slab_bridging(spec, grid)
+    fe = None
+    if model == "coupled":
+        from fenicsx_side.distributed import on_rank_zero
+        fe = lambda weight: on_rank_zero(fe_model(spec, grid, weight))
+    coupling = CouplingSpec(spec.variant, spec.relaxation, spec.rotations, spec.weighting)
+    return Description(SlabScene(spec, bridging), fe, bridging, coupling,
+                       dt_safety=spec.dt_safety), grid
+
+
+class SlabModel(Model):
+    """The slab's full or coupled model, built, with its sensors."""
+
+    def __init__(self, spec, model):
+        d, self.grid = description(spec, model)
+        super().__init__(assemble(d))
+        scene = d.scene
+        self.spec, self.model, self.scene = spec, model, scene
+        self.slab, self.slab_ids, self.slab_index = self.spheres, scene.slab_ids, scene.slab_index
+        self.impactor, self.impactor_ids = scene.impactor, scene.impactor_ids
+        self.support_ids, self.elastic_links = scene.support_ids, scene.elastic_links
+        self.radius = self.slab.radius
+        self.initial_links = int(self.damage.initial.sum())
+        self.energy_bodies = [self.slab, self.impactor]
+        self._sensors()
+
+    def _sensors(self):
+        """Spheres nearest the sensor points, and the FE node nearest the bridging sensor (in
+        the full model, the sphere nearest that node's position: the same grid in both)."""
+        points = sensor_points(self.spec, self.grid)
+        pos = self.slab.ref_pos
+        idx = [int(np.argmin(np.linalg.norm(pos - p, axis=1))) for p in points.values()]
+        node_point = self._fe_node_position(pos[idx[-1]])
+        nodes = []
+        if self.fe is not None:
+            nodes = [int(np.argmin(np.linalg.norm(self.fe.nodes - node_point, axis=1)))]
+        else:
+            idx.append(int(np.argmin(np.linalg.norm(pos - node_point, axis=1))))
+        self.set_sensors(list(points) + ["fe_node"], idx, nodes, np.vstack([pos[idx], node_point]))
+
+    def _fe_node_position(self, x):
+        """Nearest node of the FE grid (the structured grid of both models)."""
+        h, hz = self.grid.h, SLAB[2] / self.grid.n[2]
+        return np.array([round(x[0] / h) * h, round(x[1] / h) * h, round(x[2] / hz) * hz])
+
+
+def run(spec, model, out, quiet=False, resume=False):
+    """Run one model to spec.steps and write its results folder `out` (already prepared), or
+    carry on from its checkpoint (resume)."""
+    from orchestrator.run.loop import Schedule, run as run_loop
+    t_build = perf_counter()
+    m = SlabModel(spec, model)
+    build_s = perf_counter() - t_build
+    impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
+    info = {"model": model, "spec": asdict(spec), "n_slab_spheres": len(m.slab_ids),
+            "build_s": build_s, "impact_energy_J": impact_energy,
+            "links_kept_elastic": m.elastic_links}
+    schedule = Schedule(spec.steps, spec.sample_every, spec.check_every, spec.output_every,
+                        spec.checkpoint_every)
+    return run_loop(m, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
+                    info=info, arrays={"slab_index": m.slab_index},
+                    checks=lambda damage: _post_run_checks(m, damage), quiet=quiet,
+                    resume=resume)
+
+
+def _post_run_checks(m, damage):
+    """The paper's two checks: the FE stays elastic; the bridging spheres stay undamaged. For
+    the full model, their counterpart: links where the coupled model has its band and FE that
+    passed their tensile strength (ω > 0), which an elastic FE there cannot follow."""
+    from orchestrator.run.checks import post_run_checks
+    warnings = post_run_checks(m.fe, damage[m.bridge_index], m.spec.tensile_strength,
+                               m.spec.compressive_strength)
+    if m.fe is None and not m.spec.elastic_outside:
+        from yade_side.damage import link_damage
+        omega = link_damage(lambda p: m.bridging.zone.depth(p) > 0)
+        cracked = np.count_nonzero(omega > 0)
+        if cracked:
+            warnings.append(f"{cracked} of the {omega.size} links outside the coupled model's DE "
+                            f"zone are partly damaged (mean ω {omega.mean():.3f}): a coupled "
+                            f"model, elastic there, will be stiffer (docs/slab.md)")
+    return warnings

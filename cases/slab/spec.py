@@ -1,0 +1,120 @@
+"""The slab case's description and every default it has: `SlabSpec`, and one table of scales.
+The `slab` command's options and the case files' `kind = "slab"` schema are made from
+SlabSpec's fields (orchestrator.casefile.spec_schema, orchestrator.commands._options)."""
+from dataclasses import dataclass
+
+from orchestrator.casefile import (boolean, check_spec, choice, integer, non_negative, number,
+                                   poisson_range, positive, relaxation as relaxation_kind,
+                                   safety_range, spec_key as key)
+from orchestrator.coupling.bridging import WEIGHTINGS
+from orchestrator.coupling.correction import VARIANTS
+
+SLAB = (2.5, 2.0, 0.28)
+
+
+@dataclass(frozen=True)
+class Scale:
+    """What depends on the sphere size (docs/slab.md, docs/calibration.md)."""
+    radius: float        # m
+    steps: int           # 5 ms after contact: the far sensors reach their peak (~2.5-4 ms)
+    fe_young: float      # FE modulus: the bending modulus of the DE slab it stands for
+    cpm: dict            # CPM micro-parameters fitted to E = 31 GPa, fc = 31 MPa
+    tensile_strength: float  # ft the same calibration measured (the post-run FE check)
+    de_zone: float       # side of the DE zone along x (m)
+    full_width: bool     # the DE zone spans the slab's whole width (y)
+
+
+# - radius: 25,072 spheres in the full medium model, 122,066 at paper scale (the paper's
+#   Table 1: 120,808);
+# - fe_young: measured by quasi-static 3-point bending of a strip of the slab's packing
+#   against the same strip in FE on the scale's grid (`python3 -m cases.slab.bending --scale
+#   S`): 5.6-7.6 sphere diameters through 0.28 m bend like 17-21 GPa, not the 31 GPa of their
+#   uniaxial test; 12.5 diameters like 24.9 GPa;
+# - cpm: `python3 -m orchestrator calibrate --scale S` on a 0.56 × 0.56 × 0.28 m piece of the
+#   slab's packing, broken links deleted (E 31.02 / 31.00 / 30.98 GPa, fc 30.90 / 31.02 /
+#   30.90 MPa);
+# - de_zone, full_width: at 40 m/s damage reaches the free edges y = 0, 2 within 5 ms; a strip
+#   x ∈ [0.83, 1.67] m holds 98.9 % of the full small model's damaged volume, x ∈ [0.8, 1.7] m
+#   96.7 % of the medium one's.
+SCALES = {
+    "small": Scale(0.025, 3300, 17.2e9,
+                   dict(young=3.301e10, sigmaT=5.702e6, epsCrackOnset=1.188e-4),
+                   4.30e6, 0.6, True),
+    "medium": Scale(0.0185, 4400, 21.0e9,
+                    dict(young=3.137e10, sigmaT=4.375e6, epsCrackOnset=9.561e-5),
+                    3.76e6, 0.9, True),
+    "paper": Scale(0.0112, 300, 24.9e9,
+                   dict(young=2.833e10, sigmaT=3.519e6, epsCrackOnset=8.476e-5),
+                   3.14e6, 0.6, False),
+}
+# the fields that default to the table's value of the scale (None: take the scale's)
+PER_SCALE = {"radius": "radius", "steps": "steps", "young": "fe_young",
+             "tensile_strength": "tensile_strength", "de_zone": "de_zone",
+             "full_width": "full_width"}
+
+
+@dataclass
+class SlabSpec:
+    scale: str = key("small", choice(*SCALES), help="sphere size: small | medium | paper")
+    seed: int = key(1, integer, non_negative, help="packing realisation (slab and impactor)")
+    radius: float = key(None, number, positive, help="sphere radius (m); default per scale")
+    de_zone: float = key(None, number, positive,
+                         help="side of the DE zone (m), rounded to the FE grid; default per scale")
+    full_width: bool = key(None, boolean, help="the DE zone spans the slab's whole width")
+    fe_ratio: float = key(3.0, number, positive, help="in-plane FE size / sphere diameter")
+    fe_ratio_thickness: float = key(1.5, number, positive,
+                                    help="FE size through the thickness / sphere diameter")
+    impactor_side: float = key(0.30, number, positive, help="side of the cubic impactor (m)")
+    impactor_speed: float = key(40.0, number, positive, help="impact speed (m/s)")
+    impactor_gap: float = key(0.002, number, non_negative,
+                              help="m the impactor falls before its first contact")
+    elastic_outside: bool = key(False, boolean,
+                                help="full model: links outside the coupled model's DE zone "
+                                     "never damage, as the coupled model assumes")
+    layers: int = key(3, integer, positive, section="coupling", help="bridging layers")
+    variant: str = key("diagonal", choice(*VARIANTS), section="coupling",
+                       help="multiplier solver")
+    weighting: str = key("consistent", choice(*WEIGHTINGS), section="coupling",
+                         help="bridging weights: 'consistent' puts α, β inside the partners' "
+                              "masses and stiffnesses (energy-conserving), 'nodal' is the "
+                              "paper's (not conservative, docs/coupling.md)")
+    relaxation: object = key(35.0, relaxation_kind, positive, section="coupling",
+                             help="relaxation r (the paper's 35), or 'auto': the 1D study's rule")
+    rotations: bool = key(True, boolean, section="coupling", help="couple sphere rotations")
+    dt_safety: float = key(0.15, number, safety_range, section="time",
+                           help="× the smaller critical step (at 0.3 the slab gains energy "
+                                "and disintegrates under a 40 m/s impact, docs/slab.md)")
+    steps: int = key(None, integer, positive, section="time", help="steps; default per scale")
+    sample_every: int = key(5, integer, positive, section="output",
+                            help="steps between sensor samples")
+    check_every: int = key(50, integer, positive, section="output",
+                           help="steps between energy and blow-up checks")
+    output_every: int = key(200, integer, positive, section="output", name="every",
+                            help="steps between ParaView frames")
+    checkpoint_every: int = key(1000, integer, positive, section="output",
+                                help="steps between checkpoints")
+    young: float = key(None, number, positive, section="material",
+                       help="FE modulus (Pa); default per scale (the DE slab's bending modulus)")
+    poisson: float = key(0.2, number, poisson_range, section="material", help="FE Poisson ratio")
+    density: float = key(2400.0, number, positive, section="material", help="kg/m³")
+    compressive_strength: float = key(31e6, number, positive, section="material",
+                                      help="fc (Pa), for the post-run FE check")
+    tensile_strength: float = key(None, number, positive, section="material",
+                                  help="ft (Pa), for the post-run FE check; default per scale")
+
+    def __post_init__(self):
+        check_spec(self, "slab")
+        table = SCALES[self.scale]
+        for name, column in PER_SCALE.items():
+            if getattr(self, name) is None:
+                setattr(self, name, getattr(table, column))
+        if self.relaxation == "auto":
+            from cases.slab.geometry import slab_grid
+            from orchestrator.coupling.relaxation import auto_relaxation
+            ratio = slab_grid(self).h / (2 * self.radius)
+            self.relaxation = float(auto_relaxation(ratio, self.layers, self.variant,
+                                                    self.dt_safety))
+
+    @property
+    def cpm(self):
+        return SCALES[self.scale].cpm

@@ -1,0 +1,1 @@
+"""What every layer of the project may use: the one file writer."""

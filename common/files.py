@@ -1,0 +1,94 @@
+"""The one writer of every file the project makes: JSON, CSV, TOML, text, npz, PNG, and the
+frames of the ParaView series. Each file is written under a temporary name in its folder and
+renamed into place, so that no reader ever sees it half-written, with the mode a plain `open`
+would give it under the user's umask (0644 under umask 022), so that results in a shared
+folder or a Docker volume are readable by others.
+"""
+import json
+import os
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+
+
+def file_mode():
+    """0666 less the process's umask (read without changing it for good)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+@contextmanager
+def atomic(path):
+    """Yield a temporary path beside `path`; on success it replaces `path` (with the umask's
+    mode), on failure it is removed. For writers that want a file name (meshio, h5py, numpy,
+    matplotlib)."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.chmod(tmp, file_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_text(path, text):
+    with atomic(path) as tmp:
+        tmp.write_text(text)
+
+
+def write_bytes(path, data):
+    with atomic(path) as tmp:
+        tmp.write_bytes(data)
+
+
+def write_json(path, obj):
+    write_text(path, json.dumps(obj, indent=2, sort_keys=True, default=_jsonable) + "\n")
+
+
+def write_csv(path, header, rows, fmt="{:.9e}"):
+    """A CSV of numbers: `header` (names), `rows` (2D array-like), each value in `fmt`."""
+    lines = [",".join(header)] + [",".join(fmt.format(v) for v in row) for row in rows]
+    write_text(path, "\n".join(lines) + "\n")
+
+
+def write_toml(path, data, comment=None):
+    import tomli_w
+    head = f"# {comment}\n" if comment else ""
+    write_text(path, head + tomli_w.dumps(data))
+
+
+def save_npz(path, **arrays):
+    import numpy as np
+    with atomic(path) as tmp:
+        with open(tmp, "wb") as f:       # a file object: numpy would append ".npz" to a name
+            np.savez(f, **arrays)
+
+
+def save_figure(fig, path, dpi=120):
+    """A matplotlib figure as a PNG, then closed."""
+    import matplotlib.pyplot as plt
+    with atomic(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format="png")
+    plt.close(fig)
+
+
+def finish(path):
+    """Give a file written in place by a library (e.g. an HDF5 file kept open across
+    frames) the umask's mode."""
+    os.chmod(path, file_mode())
+
+
+def _jsonable(x):
+    import numpy as np
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, Path):
+        return str(x)
+    raise TypeError(f"not JSON-serialisable: {type(x).__name__}")

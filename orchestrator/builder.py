@@ -1,0 +1,273 @@
+"""The one builder: a description of a model (its DE scene, its FE part, the DE zone and
+bridging band, the weighting, the multipliers) becomes the two partners, the coupling and the
+stepper. Every case, the case-file runner and the benchmark build through `assemble`; the
+same model with another DE zone is the same call with another `bridging`. `Model` is the run
+loop's view of what was built.
+
+The order matters and is the same for every model:
+1. the FE part (α inside its stiffness and mass for the consistent weighting);
+2. the DE scene's bodies (only the spheres a coupled model keeps);
+3. the checks that need both: spheres in the band, each inside an FE cell, the time step;
+4. β inside the sphere masses (consistent), the engines, the cohesive links, and β inside
+   the links once they exist (or right after the first step when the scene's script makes
+   them: links made at rest carry no force in that step, so the result is the same);
+5. the coupling of the band's spheres to the FE part, and the stepper.
+"""
+from dataclasses import dataclass, field
+from time import perf_counter
+from typing import Callable, Optional
+
+import numpy as np
+
+from orchestrator.coupling.assembly import bridging_spheres, make_coupling, time_step
+from orchestrator.coupling.bridging import check_weighting
+from orchestrator.coupling.correction import VARIANTS
+from orchestrator.coupling.relaxation import auto_relaxation
+from orchestrator.stepper import CoupledStepper
+
+
+class BuildError(ValueError):
+    """Problems found while building, all of them (each one line)."""
+
+    def __init__(self, problems):
+        self.problems = list(problems)
+        super().__init__("; ".join(self.problems))
+
+
+@dataclass
+class CouplingSpec:
+    variant: str = "diagonal"       # multiplier solver: full | diagonal
+    relaxation: object = "auto"     # r, or "auto": orchestrator.coupling.relaxation
+    rotations: bool = True          # couple sphere rotations too
+    weighting: str = "consistent"   # or "nodal", the paper's (not conservative: docs/coupling.md)
+
+    def __post_init__(self):
+        if self.variant not in VARIANTS:
+            raise ValueError(f"coupling variant must be one of {VARIANTS}, got {self.variant!r}")
+        check_weighting("coupling", self.weighting)
+        if self.relaxation != "auto" and not (
+                isinstance(self.relaxation, (int, float)) and self.relaxation > 0):
+            raise ValueError(f"relaxation must be > 0 or 'auto', got {self.relaxation!r}")
+
+    @property
+    def consistent(self):
+        return self.weighting == "consistent"
+
+
+@dataclass
+class Description:
+    scene: object                          # orchestrator.contracts.DEScene
+    fe: Optional[Callable] = None          # fe(weight) -> FE partner; None: the DE model alone
+    bridging: object = None                # orchestrator.coupling.bridging.Bridging (or alike)
+    coupling: CouplingSpec = field(default_factory=CouplingSpec)
+    dt_safety: float = None                # dt = dt_safety × the smaller critical step, ...
+    dt: float = None                       # ... or this dt (else the scene's), checked
+    dt_source: str = "dt"                  # what set `dt`, for the messages
+    uncoupled: Optional[Callable] = None   # mask of band spheres left uncoupled (prescribed)
+    band_tol: float = 0.0                  # the band widened by this (spheres on its faces)
+
+
+@dataclass
+class Parts:
+    """What `assemble` makes of a description."""
+    O: object                  # YADE's Omega
+    ids: np.ndarray            # the model's spheres (measured; the band's are coupled)
+    fe: object                 # FE partner, or None for the DE model alone
+    bridging: object
+    beta: np.ndarray           # β of every sphere (1 where only spheres are)
+    bridge_index: np.ndarray   # the coupled spheres, into `ids`
+    stepper: object            # CoupledStepper, or None
+    dt: float
+    critical: dict
+    relaxation: float          # r as resolved (None without coupling)
+    notes: list
+    inside_step: bool          # the coupling runs inside O.step (after the integrator)
+    links_pending: bool        # the first step makes the cohesive links
+    consistent: bool
+
+
+def assemble(d):
+    """The partners, the coupling and the stepper of the description `d`; raises BuildError
+    with every problem found before anything is stepped."""
+    from yade_side import import_yade
+    from yade_side.bulk import BodySet
+    O = import_yade().Omega()
+    coupled = d.fe is not None
+    consistent = coupled and d.coupling.consistent
+    fe = d.fe(d.bridging.alpha if consistent else None) if coupled else None
+    keep = d.bridging.covers if coupled else None
+    ids = np.asarray(d.scene.place(keep), int)
+    problems = [] if len(ids) else ["de: no sphere lies in the DE zone or the bridging domain"]
+    ref_pos = BodySet(ids).ref_pos
+    index = np.empty(0, int)
+    if coupled and len(ids):
+        index = _coupled_spheres(d, fe, ref_pos, problems)
+    beta = d.bridging.beta(ref_pos) if consistent else np.ones(len(ids))
+    dt, critical = _time_step(d, fe, beta, problems)
+    if problems:
+        raise BuildError(problems)
+    if consistent:
+        from yade_side.weighting import weight_masses
+        weight_masses(ids, beta)
+    links = d.scene.start(dt)
+    if consistent and links:
+        from yade_side.weighting import weight_links
+        weight_links(ids, beta)
+    stepper, relaxation, notes, inside = None, None, [], False
+    if coupled:
+        bridge = BodySet(ids[index])          # masses read once weighted
+        relaxation, notes = _relaxation(d, bridge, dt, critical)
+        coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation)
+        stepper = CoupledStepper(O.step, bridge, fe, coupling)
+        inside = d.scene.attach(stepper.couple)
+    return Parts(O, ids, fe, d.bridging, beta, index, stepper, dt, critical, relaxation, notes,
+                 inside, not links, consistent)
+
+
+class Model:
+    """A built model as the run loop sees it (orchestrator.contracts.RunModel): `step()`
+    advances it one step. Cases subclass it to add their sensors (`set_sensors`) and the
+    bodies whose energy counts (`energy_bodies`)."""
+
+    def __init__(self, parts):
+        from yade_side.bulk import BodySet
+        from yade_side.damage import LinkDamage
+        self.parts = p = parts
+        self.O, self.fe, self.bridging, self.stepper = p.O, p.fe, p.bridging, p.stepper
+        self.dt, self.critical, self.relaxation = p.dt, p.critical, p.relaxation
+        self.bridge_index, self.notes = p.bridge_index, list(p.notes)
+        self.spheres = BodySet(p.ids)
+        self.bridge = None if p.stepper is None else p.stepper.bridge
+        self.in_de_zone = (np.zeros(len(p.ids), bool) if p.bridging is None
+                           else p.bridging.zone.depth(self.spheres.ref_pos) < 0)
+        self.damage = LinkDamage(p.ids)
+        if not p.links_pending:
+            self.damage.record_initial()
+        self.energy_bodies = [self.spheres]
+        self.sensor_names, self.sensor_positions = [], np.empty((0, 3))
+        self._sensor_spheres, self._sensor_nodes = BodySet([]), np.empty(0, int)
+        self._seconds = {"yade": 0.0, "fe": 0.0, "coupling": 0.0}
+
+    # --- stepping ----------------------------------------------------------------------------
+    def step(self):
+        p = self.parts
+        t0 = perf_counter()
+        if self.stepper is None or p.inside_step:
+            self.O.step()
+        else:
+            self.stepper.de_step()
+        self._seconds["yade"] += perf_counter() - t0
+        if self.stepper is not None and not p.inside_step:
+            self.stepper.couple()
+        if p.links_pending:             # the scene's first step made its links
+            if p.consistent:
+                from yade_side.weighting import weight_links
+                weight_links(p.ids, p.beta)
+            self.damage.record_initial()
+            p.links_pending = False
+
+    def swap_coupling(self, coupling):
+        """Go on with another coupling of the same spheres (e.g. another variant); the time
+        split starts again."""
+        self.stepper = CoupledStepper(self.stepper.de_step, self.bridge, self.fe, coupling)
+        self.parts.stepper = self.stepper
+        self._seconds = {k: 0.0 for k in self._seconds}
+
+    @property
+    def seconds(self):
+        """Time split of the steps so far: YADE, FE, coupling."""
+        s = dict(self._seconds)
+        if self.stepper is not None:
+            s.update(fe=self.stepper.seconds["fe"], coupling=self.stepper.seconds["coupling"])
+            if self.parts.inside_step:      # the coupling ran inside O.step
+                s["yade"] -= s["fe"] + s["coupling"]
+        return s
+
+    # --- what the run loop reads ---------------------------------------------------------------
+    def set_sensors(self, names, spheres, nodes, positions):
+        """Sensors on spheres (indices into `spheres`), then on FE nodes, in `names` order."""
+        from yade_side.bulk import BodySet
+        self.sensor_names = list(names)
+        self._sensor_spheres = BodySet(self.spheres.ids[np.asarray(spheres, int)])
+        self._sensor_nodes = np.asarray(nodes, int)
+        self.sensor_positions = np.asarray(positions, float).reshape(-1, 3)
+
+    def sensor_displacements(self):
+        """(n_sensors, 3) displacements now."""
+        d = np.empty((0, 3))
+        if len(self._sensor_spheres):
+            self._sensor_spheres.read()
+            d = self._sensor_spheres.displacement()
+        if self._sensor_nodes.size:
+            d = np.vstack([d, self.fe.u.reshape(-1, 3)[self._sensor_nodes]])
+        return d
+
+    def energy(self):
+        """Kinetic (spheres, FE) + CPM elastic + FE strain energy (the bridging overlap is
+        counted by both models: a diagnostic for blow-ups, not a balance). YADE's
+        Law2_ScGeom_CpmPhys_Cpm.elasticEnergy() turns NaN once two bodies touch; it is then
+        left out and the kinetic energy alone is guarded."""
+        from yade_side.scene import cpm_law
+        e = 0.0
+        for bodies in self.energy_bodies:
+            bodies.read()
+            e += bodies.kinetic_energy()
+        if self.fe is not None:
+            e += self.fe.kinetic_energy() + self.fe.strain_energy()
+        law = cpm_law()           # looked up each time: a loaded checkpoint replaces engines
+        elastic = law.elasticEnergy() if law is not None else 0.0
+        return e + elastic if np.isfinite(elastic) else e
+
+    def sphere_count(self):
+        return sum(len(b) for b in self.energy_bodies)
+
+
+def couple(fe, bridging, bridge, dt, spec, relaxation):
+    """The coupling of the spheres `bridge` to `fe` as CouplingSpec `spec` says, with r =
+    `relaxation`: α and β weigh the multipliers for the nodal weighting; the consistent one
+    has them inside the partners already (α = β = 1 here)."""
+    return make_coupling(fe, bridging, bridge, dt, spec.variant, relaxation, spec.rotations,
+                         nodal_weights=not spec.consistent)
+
+
+def _coupled_spheres(d, fe, ref_pos, problems):
+    """Indices of the band's spheres that are coupled; each must lie in an FE cell."""
+    index = bridging_spheres(d.bridging, ref_pos, d.band_tol)
+    if d.uncoupled is not None:
+        index = index[~d.uncoupled(ref_pos[index])]
+    if index.size == 0:
+        problems.append(f"coupling: no sphere lies in the bridging domain (width "
+                        f"{d.bridging.width:g} m)")
+        return index
+    try:
+        fe.locate(ref_pos[index])
+    except ValueError as e:       # it names the first sphere outside and counts them
+        problems.append(f"coupling: bridging spheres in no FE element: {e}; the mesh must "
+                        f"cover the bridging domain (coupling.zone_lo, zone_hi, layers, "
+                        f"element_size)")
+    return index
+
+
+def _time_step(d, fe, beta, problems):
+    de_critical = d.scene.critical_dt(beta)
+    fe_critical = fe.critical_dt() if fe is not None else np.inf
+    critical = {"de": de_critical, "fe": None if fe is None else fe_critical}
+    dt, source = (d.dt, d.dt_source) if d.dt is not None else d.scene.time_step
+    try:
+        dt = time_step(de_critical, fe_critical, d.dt_safety, dt, source)
+    except ValueError as e:
+        problems.extend(str(e).split("\n"))
+        dt = None
+    return dt, critical
+
+
+def _relaxation(d, bridge, dt, critical):
+    spec = d.coupling
+    if spec.relaxation != "auto":
+        return float(spec.relaxation), []
+    ratio = d.bridging.width / d.bridging.layers / (2 * bridge.radius.mean())
+    safety = dt / min(v for v in critical.values() if v is not None)
+    r = float(auto_relaxation(ratio, d.bridging.layers, spec.variant, safety))
+    return r, [f"relaxation auto: r = {r:.4g} for a discretisation ratio {ratio:.3g} (element "
+               f"size / mean sphere diameter), {d.bridging.layers} layers, {spec.variant} "
+               f"solver, dt = {safety:.3g} × the critical step"]

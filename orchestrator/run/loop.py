@@ -1,0 +1,98 @@
+"""The run loop shared by every case: it steps a model (orchestrator.contracts.RunModel) and
+tells the recorder when to sample, check, output and checkpoint; at the end it writes the
+results (orchestrator.run.outputs)."""
+import logging
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+log = logging.getLogger("orchestrator.run")
+log.propagate = False      # run.log only: the console has the progress bar and the summary
+
+
+@dataclass
+class Schedule:
+    steps: int
+    sample_every: int = 5         # sensor histories
+    check_every: int = 50         # energy, blow-up guard, progress bar
+    output_every: int = 200       # ParaView frames and damage maps
+    checkpoint_every: int = 1000  # checkpoints (orchestrator.run.restart)
+
+    def __post_init__(self):
+        for name in ("steps", "sample_every", "check_every", "output_every", "checkpoint_every"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+
+
+def run(model, schedule, out, title, reference_energy, info=None, arrays=None, checks=None,
+        notes=(), quiet=False, resume=False):
+    """Run `model` for schedule.steps and write its results folder `out` (already prepared).
+
+    info: entries put first in summary.json; arrays: extra entries of damage.npz;
+    checks(final_damage) -> warnings; notes: set-up remarks for the log; resume: carry on
+    from the checkpoint in `out`. Checkpoints every schedule.checkpoint_every steps and when
+    SIGTERM asks the run to stop (then raises restart.Stopped). Returns the summary.
+    """
+    from orchestrator.run import outputs, restart
+    from orchestrator.run.record import Recorder
+    m = model
+    with _run_log(out):
+        log.info("%s: %d spheres, %d FE nodes, %d bridging spheres, dt %.4g s (critical %s), "
+                 "%d steps", title, m.sphere_count(), 0 if m.fe is None else len(m.fe.nodes),
+                 len(m.bridge_index), m.dt, m.critical, schedule.steps)
+        for note in notes:
+            log.info("note: %s", note)
+        meta = {**restart.fingerprint(m, title, schedule.steps), "info": info or {}}
+        recorder = Recorder(m, out, meta, reference_energy, log, resume)
+        _loop(m, schedule, recorder, title, quiet)
+        wall = recorder.finish()
+        warnings = list(checks(recorder.rec.maps[-1])) if checks else []
+        summary = outputs.summary(m, recorder.rec, schedule, wall, recorder.seconds(),
+                                  warnings, info)
+        outputs.write_results(out, title, m, recorder.rec, summary, arrays)
+        for w in warnings:
+            log.warning(w)
+            print(f"WARNING: {w}")
+        log.info("done: %d steps in %.3g s (%.3g ms/step)", schedule.steps, wall,
+                 1e3 * wall / schedule.steps)
+        return summary
+
+
+def _loop(m, schedule, recorder, title, quiet):
+    from orchestrator.run import restart
+    from orchestrator.run.progress import progress
+    s, rec = schedule, recorder.rec
+    with restart.StopRequest() as stop, progress(s.steps, title, quiet, initial=rec.n) as bar:
+        for n in range(rec.n + 1, s.steps + 1):
+            m.step()
+            t = n * m.dt
+            if n % s.sample_every == 0:
+                recorder.sample(t)
+            if n % s.check_every == 0 or n == s.steps:
+                bar.set_postfix(**recorder.check(n, t), refresh=False)
+            if n % s.output_every == 0 or n == s.steps:
+                recorder.output(t)
+            bar.update()
+            if recorder.checkpoints and n < s.steps and (
+                    stop.requested or n % s.checkpoint_every == 0):
+                recorder.checkpoint(n)
+                if stop.requested:
+                    raise restart.Stopped(f"stopped at step {n} of {s.steps}: resume with "
+                                          f"--resume {recorder.out}")
+
+
+@contextmanager
+def _run_log(out):
+    """run.log in the results folder for the run's duration; errors are logged too."""
+    handler = logging.FileHandler(out / "run.log")
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+    log.addHandler(handler)
+    log.setLevel(logging.INFO)
+    try:
+        yield
+    except Exception as e:
+        log.error("run stopped: %s", e)
+        raise
+    finally:
+        log.removeHandler(handler)
+        handler.close()

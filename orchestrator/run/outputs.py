@@ -1,0 +1,88 @@
+"""What a run writes at its end: summary.json, sensors.csv, damage.npz and the plots; and how
+they are read back."""
+import numpy as np
+
+from common.files import save_figure, save_npz, write_csv, write_json
+
+
+def summary(model, rec, schedule, wall, seconds, warnings, info):
+    """summary.json's content: `info` first, then the run's figures."""
+    m, history, final = model, np.array(rec.history), rec.maps[-1]
+    volume = 4.0 / 3.0 * np.pi * m.spheres.radius**3
+    stepper = m.stepper
+    out = dict(info or {})
+    out.update({
+        "n_spheres": m.sphere_count(),
+        "n_fe_nodes": 0 if m.fe is None else len(m.fe.nodes),
+        "n_bridging_spheres": len(m.bridge_index),
+        "steps": schedule.steps, "dt": m.dt, "critical_dt": m.critical,
+        "wall_s": wall, "s_per_step": wall / schedule.steps,
+        "time_split_s": seconds,
+        "sensors": {name: {"position": np.asarray(m.sensor_positions[i]).tolist(),
+                           "peak_displacement": float(np.linalg.norm(history[:, i], axis=1).max()),
+                           "peak_displacement_z": float(np.abs(history[:, i, 2]).max())}
+                    for i, name in enumerate(m.sensor_names)},
+        "damage": {"initial_links": int(m.damage.initial.sum()),
+                   "broken_links": int(np.round(final @ m.damage.initial)),
+                   "damaged_volume_m3": float(final @ volume),
+                   "max_bridging_damage": float(final[m.bridge_index].max(initial=0.0))},
+        "energy": rec.energy,
+        "constraint_gap": rec.gaps,
+        "coupling_energy_J": None if stepper is None else {
+            "to_fe": stepper.exchange.to_fe, "net": stepper.exchange.net},
+        "warnings": warnings,
+    })
+    return out
+
+
+def write_results(out, title, model, rec, summary_data, arrays=None):
+    """summary.json, sensors.csv, damage.npz, sensors.png and damage.png of a finished run."""
+    m, times, history = model, np.array(rec.times), np.array(rec.history)
+    write_json(out / "summary.json", summary_data)
+    write_sensors(out / "sensors.csv", m.sensor_names, times, history)
+    save_npz(out / "damage.npz", times=np.array(rec.maps_t), damage=np.array(rec.maps),
+             positions=m.spheres.ref_pos, radius=m.spheres.radius, in_de_zone=m.in_de_zone,
+             **(arrays or {}))
+    plot_run(out, title, m.sensor_names, times, history, m.spheres.ref_pos, rec.maps[-1])
+
+
+def write_sensors(path, names, times, history):
+    header = ["t"] + [f"{n}_{c}" for n in names for c in "xyz"]
+    write_csv(path, header, np.column_stack([times, history.reshape(len(times), -1)]))
+
+
+def read_sensors(path):
+    """(times, names, history (n_times, n_sensors, 3)) of a sensors.csv."""
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return data[:, 0], [h[:-2] for h in header[1::3]], data[:, 1:].reshape(len(data), -1, 3)
+
+
+def plot_run(out, title, names, times, history, positions, damage):
+    """sensors.png (displacement magnitude and z of each sensor) and damage.png (plan view)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharex=True)
+    for i, name in enumerate(names):
+        axes[0].plot(times * 1e3, history[:, i, 2] * 1e3, label=name)
+        axes[1].plot(times * 1e3, np.linalg.norm(history[:, i], axis=1) * 1e3, label=name)
+    axes[0].set(xlabel="time (ms)", ylabel="z displacement (mm)", title=f"{title}: sensors")
+    axes[1].set(xlabel="time (ms)", ylabel="|displacement| (mm)")
+    axes[0].legend()
+    fig.tight_layout()
+    save_figure(fig, out / "sensors.png")
+    fig, ax = plt.subplots(figsize=(6, 5))
+    damage_map(ax, positions, damage, f"{title}: damage (broken / initial links)")
+    fig.tight_layout()
+    save_figure(fig, out / "damage.png")
+
+
+def damage_map(ax, positions, damage, title):
+    """Plan view of the damage per sphere, the most damaged of a column on top."""
+    order = np.argsort(damage)
+    sc = ax.scatter(positions[order, 0], positions[order, 1], c=damage[order], s=6,
+                    cmap="inferno_r", vmin=0, vmax=1)
+    ax.set(xlabel="x (m)", ylabel="y (m)", title=title, aspect="equal")
+    ax.figure.colorbar(sc, ax=ax, shrink=0.8)

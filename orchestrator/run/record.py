@@ -1,0 +1,92 @@
+"""What a run records as it goes: sensor samples, energy and constraint-gap checks (with the
+blow-up guard), damage maps and ParaView frames, checkpoints. The loop calls it; it writes
+the series files itself, frame by frame."""
+from time import perf_counter
+
+from orchestrator.run import restart
+from orchestrator.run.guard import BlowUpGuard
+
+
+class Recorder:
+    def __init__(self, model, out, meta, reference_energy, log, resume=False):
+        from yade_side.output import SphereSeries
+        self.m, self.out, self.meta, self.log = model, out, meta, log
+        self.guard = BlowUpGuard(reference_energy, growth=2.0)
+        self.checkpoints = model.fe is None or not model.fe.distributed
+        if not self.checkpoints:
+            log.info("no checkpoints: the FE state is distributed over MPI ranks")
+        if resume:
+            self.rec = restart.load(out, model, meta)
+            log.info("resumed from the checkpoint of step %d", self.rec.n)
+        else:
+            self.rec = restart.Record(times=[0.0], history=[model.sensor_displacements()])
+        frames = len(self.rec.maps_t)
+        self.spheres = SphereSeries(out / "spheres.pvd", frames=frames)
+        self.fe_series = None
+        if model.fe is not None:
+            from fenicsx_side.output import XdmfSeries
+            self.fe_series = XdmfSeries(out / "fe.xdmf", model.fe, frames=frames)
+        self.output_s = 0.0
+        self.t_run = perf_counter()
+        if not resume:
+            self.output(0.0)
+
+    def sample(self, t):
+        self.rec.times.append(t)
+        self.rec.history.append(self.m.sensor_displacements())
+
+    def check(self, n, t):
+        """Energy, blow-up guard and constraint gap at step n; returns the progress bar's
+        postfix."""
+        m, rec = self.m, self.rec
+        e = m.energy()
+        rec.energy.append((t, e))
+        checked = {"sensor displacements": rec.history[-1]}
+        if m.fe is not None:
+            checked["FE displacement"] = m.fe.u
+        self.guard.check(n, e, **checked)
+        # energy balance: total, and what the coupling put into the FE model and created (+)
+        # or dissipated (−) itself
+        balance = {}
+        if m.stepper is not None and m.stepper.last is not None:
+            meter, (pred, corrected) = m.stepper.exchange, m.stepper.last.gaps()
+            rec.gaps.append((t, pred, corrected))
+            balance = {"to_FE": f"{meter.to_fe:.3g} J", "coupling": f"{meter.net:+.3g} J",
+                       "gap": f"{pred:.2g}>{corrected:.2g}"}
+        self.log.info("step %d, t = %.6g s, energy %.6g J%s", n, t, e,
+                      "".join(f", {k} {v}" for k, v in balance.items()))
+        return dict(t=f"{t * 1e3:.4g} ms", E=f"{e:.4g} J", **balance)
+
+    def output(self, t):
+        """Damage map and a ParaView frame of both series."""
+        t0 = perf_counter()
+        s = self.m.spheres
+        dmg = self.m.damage.update()
+        self.rec.maps_t.append(t)
+        self.rec.maps.append(dmg)
+        s.read()
+        self.spheres.write(t, s.pos, s.radius, displacement=s.displacement(), velocity=s.vel,
+                           rotation_speed=s.angvel, damage=dmg)
+        if self.fe_series is not None:
+            self.fe_series.write(t)
+        self.output_s += perf_counter() - t0
+
+    def seconds(self):
+        """Time split of this segment and the earlier ones."""
+        now = {**self.m.seconds, "output": self.output_s}
+        earlier = self.rec.seconds
+        return {k: earlier.get(k, 0.0) + now.get(k, 0.0) for k in {*now, *earlier}}
+
+    def checkpoint(self, n):
+        rec = self.rec
+        rec.n = n
+        rec.wall_s += perf_counter() - self.t_run
+        self.t_run = perf_counter()
+        restart.save(self.out, rec, self.m, self.meta, self.seconds())
+        self.log.info("checkpoint at step %d", n)
+
+    def finish(self):
+        """The run's wall time, all segments; closes the FE series."""
+        if self.fe_series is not None:
+            self.fe_series.close()
+        return self.rec.wall_s + perf_counter() - self.t_run

@@ -1,0 +1,194 @@
+"""YADE's C++ memory, read and written directly by numpy: the body states (pos, vel, angVel,
+ori) and the CPM links' damage history. The only module that does so; it refuses a YADE
+version it was not verified on (VERIFIED), and every view is verified bit for bit against
+what YADE's own API reads before it is used.
+
+Body states. 
+YADE's `Subdomain.get/setStateValuesFromIds` pass every value through a Python float: with
+~5,000 bridging spheres that costs 4–9 ms per step, more than the coupling itself (measured,
+docs/benchmarks.md), and no Debian build of YADE 2023.02a offers an array interface, nor can a
+C++ plugin be built against Debian's package (no headers). So we locate each body's C++ `State` in memory
+and the offsets of pos, vel, angVel and ori inside it, then read and write the 13 values of
+all bodies with one numpy gather/scatter.
+
+Nothing is assumed blindly: the field offsets are found by writing distinct values to one
+body through YADE's API, and the gathered values of every body must equal YADE's API read bit
+for bit before the view is used; otherwise `locate` returns None and the caller keeps the API.
+The views hold references to the State wrappers, so the C++ objects outlive the view.
+"""
+import ctypes
+
+import numpy as np
+
+# YADE versions whose memory layouts were verified (tests/test_yade_side.py, test_checkpoint.py)
+VERIFIED = ("2023.02a",)
+
+# boost.python instance: PyObject_VAR_HEAD (3 words), dict, weakrefs, holder pointer (word 5),
+# then the in-place pointer_holder: vtable, next, shared_ptr<State> (pointer at word 8)
+_HOLDER_WORD, _HOLDER_OFFSET, _POINTER_WORD = 5, 48, 8
+_SEARCH = 64  # doubles of a State searched for the fields
+_WIDTHS = (3, 3, 3, 4)  # pos, vel, angVel, ori (x, y, z, w): the API's order
+
+
+class SceneReplaced(RuntimeError):
+    pass
+
+
+class CheckpointError(RuntimeError):
+    pass
+
+
+def yade_version():
+    from yade import config
+    return config.version
+
+
+def verified():
+    """True when this YADE's memory layout is one the project verified."""
+    return yade_version() in VERIFIED
+
+
+def check_version(error=RuntimeError):
+    if not verified():
+        raise error(f"YADE {yade_version()} is not a version whose memory layout was verified "
+                    f"({', '.join(VERIFIED)}): direct access to YADE's memory is refused")
+
+
+class StateMemory:
+    """Gather/scatter of the 13 API values of a fixed list of bodies. Each call first checks
+    that the scene still holds the first body's State (a few µs), and every FULL_CHECK-th
+    call that it still holds every body's: after O.load, O.reset or a body replaced the view
+    would otherwise read and write States no longer simulated."""
+    FULL_CHECK = 64
+
+    def __init__(self, omega, ids, wrappers, index, base, span):
+        self._omega, self._ids = omega, list(ids)
+        self._wrappers = wrappers  # keep the C++ States alive: their addresses stay unique
+        self._addresses = [state_address(w) for w in wrappers]
+        self._index = index        # (n, 13) offsets in doubles from `base`
+        self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
+        self._calls = 0
+
+    def _check(self):
+        self._calls += 1
+        bodies = self._omega.bodies
+        checked = (zip(self._ids, self._addresses) if self._calls % self.FULL_CHECK == 0
+                   else [(self._ids[0], self._addresses[0])])
+        for i, address in checked:
+            if i >= len(bodies) or bodies[i] is None or state_address(bodies[i].state) != address:
+                raise SceneReplaced("YADE's bodies were replaced (O.load, O.reset or a body "
+                                    "erased) after this body set located them in memory: "
+                                    "reattach it to the new scene")
+
+    def read(self, out):
+        self._check()
+        # indices are in range by construction; mode="raise" would buffer `out` (2x slower)
+        np.take(self._view, self._index, out=out, mode="clip")
+
+    def write(self, values):
+        self._check()
+        self._view[self._index] = values
+
+
+def state_address(wrapper):
+    """Address of the C++ State held by a boost.python State wrapper, or None if the wrapper
+    does not have the expected layout."""
+    words = (ctypes.c_uint64 * 10).from_address(id(wrapper))
+    if words[_HOLDER_WORD] != id(wrapper) + _HOLDER_OFFSET or not words[_POINTER_WORD]:
+        return None
+    return int(words[_POINTER_WORD])
+
+
+def locate(omega, ids, get, put):
+    """A verified StateMemory for the bodies `ids`, or None.
+
+    omega: yade.Omega(); get(ids) / put(ids, values): YADE's bulk API (13 values per body).
+    """
+    if len(ids) == 0 or not verified():
+        return None
+    wrappers = [omega.bodies[i].state for i in ids]
+    addresses = [state_address(w) for w in wrappers]
+    if None in addresses or any(a % 8 for a in addresses):
+        return None
+    offsets = _field_offsets(addresses[0], ids[0], get, put)
+    if offsets is None:
+        return None
+    addresses = np.array(addresses, dtype=np.int64)
+    base = int(addresses.min())
+    span = int(addresses.max() - base) // 8 + _SEARCH
+    index = (addresses - base)[:, None] // 8 + offsets[None, :]
+    memory = StateMemory(omega, ids, wrappers, index, base, span)
+    expected = np.array(get(ids), float).reshape(-1, 13)
+    got = np.empty_like(expected)
+    memory.read(got)
+    return memory if np.array_equal(got.view(np.int64), expected.view(np.int64)) else None
+
+
+def _field_offsets(address, body_id, get, put):
+    """Offsets (13,) in doubles of the API's values inside one State: write distinct values
+    through the API, find them in memory, restore the body's state."""
+    saved = list(get([body_id]))
+    probe = 1000.0 + np.arange(13) / 16.0  # exact binary fractions, unlike any state value
+    put([body_id], probe.tolist())
+    try:
+        memory = np.ctypeslib.as_array((ctypes.c_double * _SEARCH).from_address(address)).copy()
+    finally:
+        put([body_id], saved)
+    offsets, start = [], 0
+    for width in _WIDTHS:
+        field = probe[start:start + width]
+        hits = [o for o in range(_SEARCH - width + 1) if np.array_equal(memory[o:o + width], field)]
+        if len(hits) != 1:
+            return None
+        offsets.extend(range(hits[0], hits[0] + width))
+        start += width
+    return np.array(offsets, dtype=np.int64)
+
+
+# --- CPM links: the damage history O.save does not keep (yade_side.checkpoint) -----------------
+# CpmPhys members after the serialised base, in declaration order: 7 reals, 4 Vector3r
+HISTORY = ("omega", "Fn", "sigmaN", "epsN", "relResidualStrength", "kappaD", "epsNPl",
+           "sigmaT", "Fs", "epsTPl", "epsT")
+WIDTH = 19
+_SEARCH = 128  # doubles of a CpmPhys searched for the block
+
+
+def history_values(phys):
+    """The 19 history doubles of a CpmPhys, as Python reads them."""
+    return np.concatenate([np.atleast_1d(np.asarray(getattr(phys, n), float)) for n in HISTORY])
+
+
+def history_block(phys, offset):
+    """A numpy view of the 19 history doubles of a CpmPhys in YADE's memory."""
+    address = state_address(phys)
+    if address is None:
+        raise CheckpointError("cannot locate a CpmPhys in memory: unexpected boost.python layout")
+    return np.ctypeslib.as_array((ctypes.c_double * WIDTH).from_address(address + 8 * offset))
+
+
+def same_bits(a, b):
+    """Bit-for-bit equality of two float arrays."""
+    return np.array_equal(np.asarray(a, float).view(np.int64), np.asarray(b, float).view(np.int64))
+
+
+def find_offset(links):
+    """Offset (in doubles) of the history block inside CpmPhys, found on the link whose values
+    are the most distinctive and verified on every link; CheckpointError if it cannot be."""
+    if not links:
+        return None
+    probe = max(links, key=lambda i: np.count_nonzero(history_values(i.phys)))
+    address = state_address(probe.phys)
+    if address is None:
+        raise CheckpointError("cannot locate CpmPhys in memory: unexpected boost.python layout")
+    memory = np.ctypeslib.as_array((ctypes.c_double * _SEARCH).from_address(address)).copy()
+    want = history_values(probe.phys)
+    hits = [o for o in range(_SEARCH - WIDTH + 1) if same_bits(memory[o:o + WIDTH], want)]
+    if len(hits) != 1:
+        raise CheckpointError(f"CpmPhys history block found {len(hits)} times in memory; "
+                              f"cannot checkpoint the CPM damage state")
+    offset = hits[0]
+    for i in links:
+        if not same_bits(history_block(i.phys, offset), history_values(i.phys)):
+            raise CheckpointError(f"CpmPhys of link {i.id1}-{i.id2} does not have the layout "
+                                  f"found on the others; cannot checkpoint the CPM state")
+    return offset
