@@ -80,7 +80,14 @@ def _ms(x):
 
 
 def markdown(results):
-    per_scale = results["per_scale"]
+    lines = _header(results)
+    for section in (_time_table, _speedup_table, _coupling_cost_table, _coupling_parts_table):
+        lines += section(results["per_scale"])
+    lines += _threads_table(results) + ["", NOTES]
+    return "\n".join(lines) + "\n"
+
+
+def _header(results):
     m = results["machine_at_start"]
     lines = [
         "# Benchmarks", "",
@@ -101,7 +108,11 @@ def markdown(results):
     for g in results["goals"]:
         status = {True: "met", False: "**missed**", None: "n/a"}[g["met"]]
         lines.append(f"| {g['goal']} | {g['figure']} | {status} |")
-    lines += ["", "## Time per step (ms) and memory", "",
+    return lines
+
+
+def _time_table(per_scale):
+    lines = ["", "## Time per step (ms) and memory", "",
               "| scale | model | spheres | bridging | YADE | FE | coupling | output | step | "
               "build (s) | peak (GB) | 100,000 steps (h) |",
               "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
@@ -113,7 +124,11 @@ def markdown(results):
                          f"{_ms(sp['yade'])} | {_ms(sp.get('fe', 0))} | {_ms(sp.get('coupling', 0))} | "
                          f"{_ms(sp['output'])} | {_ms(f['step_s'])} | {f['build_s']:.1f} | "
                          f"{f['peak_GB']:.2f} | {f['projected_100k_steps_s'] / 3600:.2f} |")
-    lines += ["", "## Speed-up", "",
+    return lines
+
+
+def _speedup_table(per_scale):
+    lines = ["", "## Speed-up", "",
               "| scale | sphere-count ratio | speed-up per step | speed-up / ratio | "
               "coupling share | FE share | bridging share of coupled spheres | "
               "speed-up in wall time (steps only) |",
@@ -124,7 +139,11 @@ def markdown(results):
                      f"{s['speedup_over_ratio']:.2f} | {s['coupling_fraction']:.1%} | "
                      f"{s['fe_fraction']:.1%} | {c['n_bridging_spheres'] / c['n_spheres']:.0%} | "
                      f"{s['wall_time_speedup_per_step']:.2f} |")
-    lines += ["", "## Coupling cost per bridging sphere per step", "",
+    return lines
+
+
+def _coupling_cost_table(per_scale):
+    lines = ["", "## Coupling cost per bridging sphere per step", "",
               "Full Lagrange (Woodbury, the coupled FE mass matrix factorised once) against "
               "diagonalised (row sums), timed on the same model in the same process.", "",
               "| scale | bridging spheres | diagonalised (µs) | full (µs) | full: factorisation (s) "
@@ -137,7 +156,11 @@ def markdown(results):
                      f"{1e6 * per.get('full', float('nan')):.3f} | "
                      f"{'-' if fact is None else f'{fact:.3f}'} | {s['full_system_size'] or '-'} | "
                      f"{s['guarded_rotation_rows']} |")
-    lines += ["", "## Where the coupling time goes (ms, each piece timed alone, diagonalised)", "",
+    return lines
+
+
+def _coupling_parts_table(per_scale):
+    lines = ["", "## Where the coupling time goes (ms, each piece timed alone, diagonalised)", "",
               "| scale | read spheres | multipliers | correct + write spheres | write alone | "
               "correct FE | exchange meter | direct memory exchange | YADE API read + write |",
               "|---|---:|---:|---:|---:|---:|---:|---|---:|"]
@@ -148,13 +171,16 @@ def markdown(results):
                      f"{_ms(p['correct_fe_s'])} | {_ms(p['exchange_meter_s'])} | "
                      f"{'yes' if p['direct_memory_exchange'] else 'no (YADE API)'} | "
                      f"{_ms(p['api_read_s'])} + {_ms(p['api_write_s'])} |")
-    lines += ["", "## YADE with OpenMP threads (full model, wall time)", "",
+    return lines
+
+
+def _threads_table(results):
+    lines = ["", "## YADE with OpenMP threads (full model, wall time)", "",
               "| threads | scale | spheres | ms/step | speed-up |", "|---:|---|---:|---:|---:|"]
     for t, x in results["raw"]["threads"].items():
         lines.append(f"| {t} | {x['scale']} | {x['n_spheres']:,} | {_ms(x['s_per_step'])} | "
                      f"{results['thread_speedup'].get(t, float('nan')):.2f} |")
-    lines += ["", NOTES]
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 NOTES = """## Notes

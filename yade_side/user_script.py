@@ -72,6 +72,13 @@ def run_script(path, args=()):
     return scene
 
 
+def current_scene():
+    """The scene a script running under YADE's own launcher has built (`yade script.py`,
+    whose sys.argv[0] is the script): a ScriptScene for it, with the script's O.dt."""
+    import __main__
+    return ScriptScene(Path(sys.argv[0]), vars(__main__), dt_from_script=import_yade().Omega().dt)
+
+
 @contextmanager
 def _neutralised(yade, scene):
     import yade.plot

@@ -109,25 +109,29 @@ def run_shear_check(spec, check):
     sets = {"bridging": np.zeros(len(s), bool), "de_zone": free & (block.beta >= 1.0)}
     sets["bridging"][block.bridge_index] = True
     d_exact = (s.ref_pos - centre) @ B.T
-    mean_d, mean_w = np.zeros_like(d_exact), np.zeros_like(d_exact)
+    mean_d, mean_w = _held_means(block, check)
+    errors = {name: {"spheres": int(mask.sum()),
+                     "displacement": _relative_rms(mean_d[mask], d_exact[mask]),
+                     "rotation": _relative_rms(mean_w[mask],
+                                               np.broadcast_to(w_exact, (mask.sum(), 3)))}
+              for name, mask in sets.items()}
+    return {"errors": errors, "dt": block.dt, "positions": s.ref_pos, "rotation": mean_w,
+            "displacement": mean_d, "sets": sets, "rotation_exact": w_exact,
+            "coupling_seconds": block.stepper.seconds}
+
+
+def _held_means(block, check):
+    """Ramp, then hold: the spheres' displacements and rotation vectors averaged over the
+    hold."""
+    s = block.spheres
+    mean_d, mean_w = np.zeros((len(s), 3)), np.zeros((len(s), 3))
     for n in range(check.ramp_steps + check.hold_steps):
         block.stepper.step()
         if n >= check.ramp_steps:
             s.read()
             mean_d += s.displacement()
             mean_w += rotation_vector(s.ori)
-    mean_d /= check.hold_steps
-    mean_w /= check.hold_steps
-    errors = {}
-    for name, mask in sets.items():
-        errors[name] = {
-            "spheres": int(mask.sum()),
-            "displacement": _relative_rms(mean_d[mask], d_exact[mask]),
-            "rotation": _relative_rms(mean_w[mask], np.broadcast_to(w_exact, (mask.sum(), 3))),
-        }
-    return {"errors": errors, "dt": block.dt, "positions": s.ref_pos, "rotation": mean_w,
-            "displacement": mean_d, "sets": sets, "rotation_exact": w_exact,
-            "coupling_seconds": block.stepper.seconds}
+    return mean_d / check.hold_steps, mean_w / check.hold_steps
 
 
 def _relative_rms(value, exact):

@@ -21,7 +21,8 @@ class CaseModel(Model):
         cp, time = d["coupling"], d["time"]
         self.bridging = Bridging(BoxZone(cp["zone_lo"], cp["zone_hi"], cp["zone_axes"]),
                                  cp["layers"], cp["element_size"])
-        scene = (UserScriptScene(d["de"], self.bridging) if "script" in d["de"]
+        scripted = "script" in d["de"] or d["de"]["current"]
+        scene = (UserScriptScene(d["de"], self.bridging) if scripted
                  else PackingScene(d["de"]["packing"], d["material"]))
         coupling = CouplingSpec(cp["variant"], cp["relaxation"], cp["rotations"], cp["weighting"])
         description = Description(scene, self._fe_model, self.bridging, coupling,
@@ -34,7 +35,8 @@ class CaseModel(Model):
         self.notes = scene.notes + self.notes
         self.reference_energy = scene.reference_energy
         self.run_steps = (time["steps"] if "steps" in time
-                          else max(1, math.ceil(time["duration"] / self.dt)))
+                          else max(1, math.ceil(time["duration"] / self.dt))
+                          if "duration" in time else None)    # None: YADE's loop decides
         problems = []
         self._sensors(d["sensors"], problems)
         if problems:

@@ -52,8 +52,10 @@ class PackingScene:
 
 
 class UserScriptScene:
-    """A user's YADE script, run unchanged; its free spheres are the model's. Clumps, other
-    shapes and fixed bodies cannot be coupled and are refused in the bridging domain."""
+    """A user's YADE script, run unchanged (or, with de.current, the scene a script running
+    under YADE's own launcher has built: orchestrator.attach); its free spheres are the
+    model's. Clumps, other shapes and fixed bodies cannot be coupled and are refused in the
+    bridging domain."""
 
     def __init__(self, de, bridging):
         self.de, self.bridging = de, bridging
@@ -62,8 +64,9 @@ class UserScriptScene:
 
     def place(self, keep):
         from yade_side.bulk import BodySet
-        from yade_side.user_script import body_table, prepare_dynamics, run_script
-        self.script = run_script(self.de["script"], self.de["script_args"])
+        from yade_side.user_script import body_table, current_scene, prepare_dynamics, run_script
+        self.script = (current_scene() if self.de["current"]
+                       else run_script(self.de["script"], self.de["script_args"]))
         prepare_dynamics(self.script)
         self.notes += self.script.warnings
         name = self.script.path.name

@@ -29,7 +29,7 @@ SENSOR = {"name": Key(string, REQUIRED), "point": Key(vector, UNSET),
 GENERIC = {
     "case": CASE,
     "de": {"script": Key(string, UNSET), "script_args": Key(strings, []),
-           "packing": [PACKING]},
+           "packing": [PACKING], "current": Key(boolean, False)},
     "material": dict(MATERIAL, cpm=CPM),
     "fe": {"mesh": Key(string, "box"), "lo": Key(vector, UNSET), "hi": Key(vector, UNSET),
            "n": Key(divisions, UNSET), "cell": Key(choice("hexahedron", "tetrahedron"), "hexahedron"),
@@ -51,7 +51,11 @@ GENERIC = {
 def check(d, folder, problems):
     """Consistency of a generic case: one DE model, a usable mesh, a zone inside it."""
     de, fe, cp, time = d["de"], d["fe"], d["coupling"], d["time"]
-    if ("script" in de) == bool(de["packing"]):
+    if de["current"]:
+        if "script" in de or de["packing"]:
+            problems.append("de.current = true: the YADE scene already built is the DE part "
+                            "(orchestrator.attach); give no de.script or [[de.packing]] with it")
+    elif ("script" in de) == bool(de["packing"]):
         problems.append("de: give either de.script (a YADE script) or [[de.packing]] boxes, "
                         f"not {'both' if 'script' in de else 'neither'}")
     if "script" in de:
@@ -62,7 +66,8 @@ def check(d, folder, problems):
     for i, p in enumerate(de["packing"]):
         _box_order(p["lo"], p["hi"], f"de.packing[{i}]", problems)
     _box_order(cp["zone_lo"], cp["zone_hi"], "coupling.zone", problems, cp["zone_axes"])
-    if ("duration" in time) == ("steps" in time):
+    if ("duration" in time) == ("steps" in time) and not (de["current"] and not time.keys()
+                                                          & {"duration", "steps"}):
         problems.append("time: give either time.duration (s) or time.steps, not "
                         f"{'both' if 'steps' in time else 'neither'}")
     for i, s in enumerate(d["sensors"]):
