@@ -10,7 +10,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # layers, top first; a module belongs to the first layer one of whose prefixes it starts with
 LAYERS = [
     ("cli", ("orchestrator.cli", "orchestrator.commands", "orchestrator.batch",
-             "orchestrator.__main__", "orchestrator.env", "bench")),
+             "orchestrator.attach", "orchestrator.__main__", "orchestrator.env", "bench")),
     ("cases", ("cases",)),
     ("run", ("orchestrator.builder", "orchestrator.stepper", "orchestrator.contracts",
              "orchestrator.run", "orchestrator.casefile")),

@@ -11,7 +11,7 @@ import weakref
 import numpy as np
 
 from yade_side import import_yade
-from yade_side.memory import locate
+from yade_side.memory import SceneReplaced, locate
 
 _POS, _VEL, _ANGVEL, _ORI = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 13)
 _LIVE = weakref.WeakSet()  # every BodySet, to reattach after a scene is loaded
@@ -49,9 +49,14 @@ class BodySet:
 
     def reattach(self):
         """Find the bodies' states in YADE's memory again: after O.load() they are new
-        objects, and a view of the old ones would read and write bodies no longer simulated."""
-        self._memory = None
-        if self._direct:
+        objects, and a view of the old ones would read and write bodies no longer simulated.
+        A set whose bodies the new scene does not have (a set of an earlier scene) is left
+        orphaned: reading or writing it raises SceneReplaced."""
+        self._memory, self._orphaned = None, False
+        bodies = self._O.bodies
+        if any(i >= len(bodies) or bodies[i] is None for i in self._id_list):
+            self._orphaned = True
+        elif self._direct:
             self._memory = locate(self._O, self._id_list, self._api_get, self._api_put)
 
     def __len__(self):
@@ -63,6 +68,7 @@ class BodySet:
         return self._memory is not None
 
     def read(self):
+        self._check_attached()
         if self._memory is not None:
             self._memory.read(self.state)
         else:
@@ -72,10 +78,16 @@ class BodySet:
         return self.state
 
     def write(self):
+        self._check_attached()
         if self._memory is not None:
             self._memory.write(self.state)
         else:
             self._api_put(self._id_list, self.state.ravel().tolist())
+
+    def _check_attached(self):
+        if self._orphaned:
+            raise SceneReplaced("this body set's bodies are not in the current YADE scene (it "
+                                "was made for an earlier scene)")
 
     def _api_get(self, ids):
         return self._subdomain.getStateValuesFromIds(ids)

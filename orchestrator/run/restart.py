@@ -73,6 +73,8 @@ def save(out, record, model, meta, seconds):
     save_npz(new / "state.npz", **state)
     write_json(new / "meta.json", {**meta, "step": record.n, "seconds": seconds})
     if final.exists():
+        # a run killed after its last swap can leave the checkpoint before it: stale now
+        shutil.rmtree(old, ignore_errors=True)
         final.rename(old)
     new.rename(final)
     shutil.rmtree(old, ignore_errors=True)
