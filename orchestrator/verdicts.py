@@ -77,13 +77,13 @@ def _deviations(ratios):
 
 
 def within_full_scatter(histories, damage=None):
-    """Per sensor (nRMS, and the peak's relative deviation |ratio - 1|) and for the damaged
-    volume (|ratio - 1|): is the largest coupled deviation from the full mean no larger than the
+    """Per sensor (nRMS, and the peak's relative deviation |ratio - 1|) and for the damage
+    figures (|ratio - 1|): is the largest coupled deviation from the full mean no larger than the
     largest leave-one-out full deviation? See the module's docstring.
     histories, damage: the results of orchestrator.ensemble.histories and .damage.
-    Returns {"sensors": {sensor: {"nrms": verdict, "peak": verdict}}, "damaged_volume": verdict
-    (without damage: absent)}; verdict = {"coupled_max", "full_leave_one_out_max", "within",
-    "n_full", "weak"}."""
+    Returns {"sensors": {sensor: {"nrms": verdict, "peak": verdict}}, "damage":
+    {"damaged_volume_m3": verdict, "broken_links": verdict} (without damage: absent)};
+    verdict = {"coupled_max", "full_leave_one_out_max", "within", "n_full", "weak"}."""
     n_full = len(histories["full_seeds"])
     _check_members(n_full, len(histories["coupled_seeds"]))
     out = {"sensors": {}}
@@ -94,9 +94,10 @@ def within_full_scatter(histories, damage=None):
         out["sensors"][name] = {
             "nrms": _verdict(coupled["nrms"], full["nrms_leave_one_out"], n_full), "peak": peak}
     if damage is not None:
-        _check_members(len(damage["full_seeds"]), len(damage["coupled_seeds"]))
-        volume = damage["coupled_vs_full_mean"]["damaged_volume_m3"]["ratio"]
-        scatter = damage["full"]["damaged_volume_m3"]["ratio_leave_one_out"]
-        out["damaged_volume"] = _verdict(_deviations(volume), _deviations(scatter),
-                                         len(damage["full_seeds"]))
+        n = len(damage["full_seeds"])
+        _check_members(n, len(damage["coupled_seeds"]))
+        out["damage"] = {
+            key: _verdict(_deviations(damage["coupled_vs_full_mean"][key]["ratio"]),
+                          _deviations(full["ratio_leave_one_out"]), n)
+            for key, full in damage["full"].items()}
     return out

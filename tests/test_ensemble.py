@@ -3,6 +3,8 @@
 Sensor "a": members (1 + e_i)·f, sensor "b": members f + d_i, with f = sin(2πt/T) sampled at
 N points of one period: mean(f²) = 1/2 exactly and peak |f| = 1 (N divisible by 4).
 """
+import json
+
 import numpy as np
 import pytest
 
@@ -131,11 +133,17 @@ def test_damage_figures_and_verdict():
     np.testing.assert_allclose(d["paired"]["damaged_volume_m3"]["ratio"], [2.0], atol=1e-14)
     np.testing.assert_allclose(d["paired"]["broken_links"]["ratio"], [1.1], atol=1e-14)
     stats = ensemble.histories(*members(), SENSORS)
-    v = verdicts.within_full_scatter(stats, d)["damaged_volume"]
-    assert v["coupled_max"] == pytest.approx(0.5, abs=1e-14)
-    assert v["full_leave_one_out_max"] == pytest.approx(0.05 / 0.035 - 1, abs=1e-14)
-    assert not v["within"]
+    v = verdicts.within_full_scatter(stats, d)["damage"]
+    assert v["damaged_volume_m3"]["coupled_max"] == pytest.approx(0.5, abs=1e-14)
+    assert v["damaged_volume_m3"]["full_leave_one_out_max"] == pytest.approx(0.05 / 0.035 - 1,
+                                                                             abs=1e-14)
+    assert not v["damaged_volume_m3"]["within"]
+    # links: coupled 6500/6000 - 1 = 0.083 against 7000/5500 - 1 = 0.273
+    assert v["broken_links"]["coupled_max"] == pytest.approx(500 / 6000, abs=1e-14)
+    assert v["broken_links"]["full_leave_one_out_max"] == pytest.approx(1500 / 5500, abs=1e-14)
+    assert v["broken_links"]["within"]
     goals = verdicts.ensemble_goals(stats, d)
+    json.dumps([d, stats, v, goals])  # plain types, ready for comparison.json
     # coupled seed 4 against the mean: nRMS 0.035 and 0.038, peaks 0.95 and 0.96, volume 1.125
     assert goals["coupled_vs_full_mean"][1] == {"peaks_within_10_percent": True,
                                                 "history_nrms_at_most_15_percent": True,
