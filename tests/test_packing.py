@@ -94,11 +94,18 @@ def test_cache_file_of_another_cell_is_not_used(reference, prefilled, tmp_path, 
     seed2 = cell_path(cell_key(np.subtract(HI, LO), R, 0.0, 2, N))
     monkeypatch.setenv("DEM_FEM_CACHE", str(tmp_path))
     seed1 = cell_path(cell_key(np.subtract(HI, LO), R, 0.0, 1, N))
-    seed1.parent.mkdir()
     shutil.copy(seed2, seed1)
     assert build(tmp_path, monkeypatch).tobytes() == reference[1].tobytes()
     assert f"packing cache file {seed1} is unusable, rebuilding it: it holds another cell" \
         in capfd.readouterr().err
+
+
+def test_unusable_cache_folder_is_refused_in_one_line(tmp_path, monkeypatch):
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("DEM_FEM_CACHE", str(tmp_path / "file" / "cache"))
+    with pytest.raises(ValueError, match=r"packing cache folder .*file/cache \(DEM_FEM_CACHE\) "
+                                         r"cannot be made: Not a directory"):
+        dense_box_packing(LO, HI, R, spheres_in_cell=N)
 
 
 @pytest.mark.parametrize("kw, word", [({"seed": -1}, "seed"), ({"seed": True}, "seed"),

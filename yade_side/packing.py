@@ -37,7 +37,13 @@ _ROOT = Path(__file__).resolve().parents[1]
 def cache_dir():
     """Where the packings are cached: $DEM_FEM_CACHE, else ~/.cache/…; never the repo."""
     path = Path(os.environ.get("DEM_FEM_CACHE", Path.home() / ".cache" / "yade-fenicsx-coupling"))
-    path.mkdir(parents=True, exist_ok=True)
+    try:
+        (path / "cells").mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ValueError(f"packing cache folder {path} (DEM_FEM_CACHE) cannot be made: "
+                         f"{err.strerror}") from None
+    if not os.access(path / "cells", os.W_OK):
+        raise ValueError(f"packing cache folder {path / 'cells'} (DEM_FEM_CACHE) is not writable")
     return path
 
 
@@ -147,7 +153,6 @@ def _compact(key, path):
     spheres = pickle.loads(blob)
     centres = np.array([tuple(c) for c, _ in spheres], float).reshape(-1, 3)
     radii = np.array([r for _, r in spheres], float)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.part")
     try:
         with os.fdopen(fd, "wb") as f:
