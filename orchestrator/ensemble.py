@@ -95,12 +95,10 @@ def histories(full, coupled, sensors):
                                  f"expected ({len(t)}, {len(sensors)}) (times, sensors)")
     fs, cs = sorted(full), sorted(coupled)
     ps = [s for s in cs if s in full]
-    t = common_time_base([full[s] for s in fs] + [coupled[s] for s in cs])
-    hf = np.stack([resample(t, full[s]) for s in fs])           # (n_full, n_times, n_sensors)
-    hc = np.stack([resample(t, coupled[s]) for s in cs]) if cs else np.zeros((0,) + hf.shape[1:])
+    t, hf, hc = _on_common_base(full, coupled)
     mean = hf.mean(axis=0)
     peak_m = peaks(mean)
-    peak_f, peak_c = np.abs(hf).max(axis=1), np.abs(hc).max(axis=1)  # (members, n_sensors)
+    peak_f, peak_c = np.abs(hf).max(axis=1), np.abs(hc).max(axis=1)  # peaks: (members, sensors)
     dev_f = np.array([nrms(h, mean) for h in hf])
     if len(fs) > 1:
         others = leave_one_out_means(hf)
@@ -129,13 +127,20 @@ def histories(full, coupled, sensors):
     return out
 
 
-def band(full, coupled=()):
+def band(full, coupled):
     """(t, mean, min, max) of the full ensemble on the common time base of all runs (full and
     coupled, each {seed: (t, h)}), each (n_times, n_sensors): for plots."""
-    runs = [full[s] for s in sorted(full)] + [coupled[s] for s in sorted(coupled)]
-    t = common_time_base(runs)
-    hf = np.stack([resample(t, full[s]) for s in sorted(full)])
+    t, hf, _ = _on_common_base(full, coupled)
     return t, hf.mean(axis=0), hf.min(axis=0), hf.max(axis=0)
+
+
+def _on_common_base(full, coupled):
+    """(t, full histories (n_full, n_times, n_sensors), coupled ones), members in seed order."""
+    fs, cs = sorted(full), sorted(coupled)
+    t = common_time_base([full[s] for s in fs] + [coupled[s] for s in cs])
+    hf = np.stack([resample(t, full[s]) for s in fs])
+    hc = np.stack([resample(t, coupled[s]) for s in cs]) if cs else np.zeros((0,) + hf.shape[1:])
+    return t, hf, hc
 
 
 DAMAGE_FIGURES = ("damaged_volume_m3", "broken_links")
