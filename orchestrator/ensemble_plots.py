@@ -1,0 +1,58 @@
+"""Figures of an ensemble comparison: the full ensemble's band with the coupled members over it,
+and the mean damage maps."""
+import numpy as np
+
+from orchestrator.ensemble import band, resample
+from orchestrator.runner import damage_map
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_histories(path, full, coupled, sensors, ylabel="z displacement (mm)", scale=1e3):
+    """One panel per sensor: the full ensemble's min–max band and mean, each coupled member as a
+    line. full, coupled: {seed: (t (s), h (n_times, n_sensors))}, all on the common time base of
+    orchestrator.ensemble; histories are multiplied by `scale` (default: m to mm)."""
+    plt = _pyplot()
+    t, mean, lo, hi = band(full, coupled)
+    cols = 2 if len(sensors) > 1 else 1
+    rows = -(-len(sensors) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5 * cols, 3.5 * rows), sharex=True,
+                             squeeze=False)
+    for k, (ax, name) in enumerate(zip(axes.ravel(), sensors)):
+        ax.fill_between(t * 1e3, lo[:, k] * scale, hi[:, k] * scale, color="0.8",
+                        label=f"full, {len(full)} seeds: min–max")
+        ax.plot(t * 1e3, mean[:, k] * scale, "k-", lw=1.5, label="full: mean")
+        for seed in sorted(coupled):
+            ax.plot(t * 1e3, resample(t, coupled[seed])[:, k] * scale, "--", lw=1,
+                    label=f"coupled, seed {seed}")
+        ax.set(title=name, xlabel="time (ms)", ylabel=ylabel)
+        ax.legend(fontsize="small")
+    for ax in axes.ravel()[len(sensors):]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_mean_damage_maps(path, maps, n_full, n_coupled):
+    """Plan views of the ensembles' mean damage maps (orchestrator.ensemble.mean_damage_maps),
+    one dot per grid cell that holds spheres."""
+    plt = _pyplot()
+    x, y = np.meshgrid(maps["x"], maps["y"], indexing="ij")
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+    for ax, key, n in zip(axes, ("full", "coupled"), (n_full, n_coupled)):
+        grid = maps[key]
+        held = np.isfinite(grid)
+        damage_map(ax, np.column_stack([x[held], y[held]]), grid[held],
+                   f"{key}: mean damage of {n} seeds")
+    corr = maps["correlation"]
+    fig.suptitle("correlation of the mean maps: " + ("undefined" if corr is None
+                                                     else f"{corr:.3f}"))
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
