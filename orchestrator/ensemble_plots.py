@@ -3,7 +3,8 @@ and the mean damage maps."""
 import numpy as np
 
 from orchestrator.ensemble import band, resample
-from orchestrator.runner import damage_map
+from common.files import save_figure
+from orchestrator.run.outputs import damage_map
 
 
 def _pyplot():
@@ -35,8 +36,7 @@ def plot_histories(path, full, coupled, sensors, ylabel="z displacement (mm)", s
     for ax in axes.ravel()[len(sensors):]:
         ax.set_visible(False)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 def plot_mean_damage_maps(path, maps, n_full, n_coupled):
@@ -54,5 +54,4 @@ def plot_mean_damage_maps(path, maps, n_full, n_coupled):
     fig.suptitle("correlation of the mean maps: " + ("undefined" if corr is None
                                                      else f"{corr:.3f}"))
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, path)

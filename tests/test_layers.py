@@ -13,7 +13,8 @@ LAYERS = [
              "orchestrator.attach", "orchestrator.__main__", "orchestrator.env", "bench")),
     ("cases", ("cases",)),
     ("run", ("orchestrator.builder", "orchestrator.stepper", "orchestrator.contracts",
-             "orchestrator.run", "orchestrator.casefile")),
+             "orchestrator.run", "orchestrator.casefile", "orchestrator.ensemble",
+             "orchestrator.ensemble_plots", "orchestrator.verdicts")),
     ("core and partners", ("orchestrator.coupling", "yade_side", "fenicsx_side")),
     ("writer", ("common",)),
 ]

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.files import save_npz
 from yade_side import import_yade
 
 SPHERES_IN_CELL = 2000
@@ -153,16 +154,8 @@ def _compact(key, path):
     spheres = pickle.loads(blob)
     centres = np.array([tuple(c) for c, _ in spheres], float).reshape(-1, 3)
     radii = np.array([r for _, r in spheres], float)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.part")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            np.savez(f, key=json.dumps(key, sort_keys=True), centres=centres, radii=radii,
-                     cell_size=np.array(size, float))
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
+    save_npz(path, key=json.dumps(key, sort_keys=True), centres=centres, radii=radii,
+             cell_size=np.array(size, float))
 
 
 def sphere_arrays(sp):
