@@ -54,12 +54,14 @@ def nrms(h, ref):
         return np.where(p > 0, np.sqrt(np.mean((h - ref) ** 2, axis=0)) / p, np.nan)
 
 
-def _ratio(a, b):
+def ratio(a, b):
+    """a / b, NaN where b has no positive value."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(b > 0, a / b, np.nan)
 
 
-def _figures(x):
+def figures(x):
     """A list for JSON: NaN (undefined) as None."""
     return [None if not np.isfinite(v) else float(v) for v in np.asarray(x, float).ravel()]
 
@@ -103,7 +105,7 @@ def histories(full, coupled, sensors):
     if len(fs) > 1:
         others = leave_one_out_means(hf)
         dev_loo = np.array([nrms(h, m) for h, m in zip(hf, others)])
-        peak_loo = _ratio(peak_f, np.abs(others).max(axis=1))
+        peak_loo = ratio(peak_f, np.abs(others).max(axis=1))
     dev_c = np.array([nrms(h, mean) for h in hc]).reshape(len(cs), len(sensors))
     pair_c = [cs.index(s) for s in ps]
     pair_f = [fs.index(s) for s in ps]
@@ -114,16 +116,16 @@ def histories(full, coupled, sensors):
            "full_scatter": {}, "coupled_vs_full_mean": {}, "paired": {}}
     for k, name in enumerate(sensors):
         out["full_scatter"][name] = {
-            "mean_peak": float(peak_m[k]), "peaks": _figures(peak_f[:, k]),
+            "mean_peak": float(peak_m[k]), "peaks": figures(peak_f[:, k]),
             "peak_range": [float(peak_f[:, k].min()), float(peak_f[:, k].max())],
-            "nrms": _figures(dev_f[:, k]),
-            "nrms_leave_one_out": _figures(dev_loo[:, k]) if len(fs) > 1 else None,
-            "peak_ratio_leave_one_out": _figures(peak_loo[:, k]) if len(fs) > 1 else None}
+            "nrms": figures(dev_f[:, k]),
+            "nrms_leave_one_out": figures(dev_loo[:, k]) if len(fs) > 1 else None,
+            "peak_ratio_leave_one_out": figures(peak_loo[:, k]) if len(fs) > 1 else None}
         out["coupled_vs_full_mean"][name] = {
-            "nrms": _figures(dev_c[:, k]), "peak_ratio": _figures(_ratio(peak_c[:, k], peak_m[k]))}
+            "nrms": figures(dev_c[:, k]), "peak_ratio": figures(ratio(peak_c[:, k], peak_m[k]))}
         out["paired"][name] = {
-            "nrms": _figures(dev_p[:, k]),
-            "peak_ratio": _figures(_ratio(peak_c[pair_c, k], peak_f[pair_f, k]))}
+            "nrms": figures(dev_p[:, k]),
+            "peak_ratio": figures(ratio(peak_c[pair_c, k], peak_f[pair_f, k]))}
     return out
 
 
@@ -170,13 +172,13 @@ def damage(full, coupled):
         except KeyError as err:
             raise ValueError(f"a member's damage lacks {err.args[0]!r}") from None
         out["full"][key] = {
-            "members": _figures(f), "mean": float(f.mean()), "range": [float(f.min()),
+            "members": figures(f), "mean": float(f.mean()), "range": [float(f.min()),
                                                                         float(f.max())],
-            "ratio_leave_one_out": _figures(_ratio(f, leave_one_out_means(f)))
+            "ratio_leave_one_out": figures(ratio(f, leave_one_out_means(f)))
             if len(fs) > 1 else None}
-        out["coupled_vs_full_mean"][key] = {"members": _figures(c),
-                                            "ratio": _figures(_ratio(c, f.mean()))}
-        out["paired"][key] = {"ratio": _figures(_ratio(c[[cs.index(s) for s in ps]],
+        out["coupled_vs_full_mean"][key] = {"members": figures(c),
+                                            "ratio": figures(ratio(c, f.mean()))}
+        out["paired"][key] = {"ratio": figures(ratio(c[[cs.index(s) for s in ps]],
                                                        f[[fs.index(s) for s in ps]]))}
     return out
 

@@ -53,7 +53,7 @@ def ensemble_goals(histories, damage):
     return out
 
 
-def _check_members(n_full, n_coupled):
+def check_members(n_full, n_coupled):
     if n_full < MIN_FULL_MEMBERS:
         raise ValueError(f"a verdict against the full model's scatter needs at least "
                          f"{MIN_FULL_MEMBERS} full runs (seeds), got {n_full}")
@@ -85,7 +85,7 @@ def within_full_scatter(histories, damage=None):
     {"damaged_volume_m3": verdict, "broken_links": verdict} (without damage: absent)};
     verdict = {"coupled_max", "full_leave_one_out_max", "within", "n_full", "weak"}."""
     n_full = len(histories["full_seeds"])
-    _check_members(n_full, len(histories["coupled_seeds"]))
+    check_members(n_full, len(histories["coupled_seeds"]))
     out = {"sensors": {}}
     for name, full in histories["full_scatter"].items():
         coupled = histories["coupled_vs_full_mean"][name]
@@ -95,7 +95,7 @@ def within_full_scatter(histories, damage=None):
             "nrms": _verdict(coupled["nrms"], full["nrms_leave_one_out"], n_full), "peak": peak}
     if damage is not None:
         n = len(damage["full_seeds"])
-        _check_members(n, len(damage["coupled_seeds"]))
+        check_members(n, len(damage["coupled_seeds"]))
         out["damage"] = {
             key: _verdict(_deviations(damage["coupled_vs_full_mean"][key]["ratio"]),
                           _deviations(full["ratio_leave_one_out"]), n)

@@ -1,98 +1,199 @@
-"""Coupled against full: sensor histories, damage, cost (`compare FULL COUPLED`)."""
+"""Coupled against full (`compare FULL COUPLED`): one run of each, or ensembles of runs over
+packing seeds. Each same-seed pair is compared sensor by sensor and sphere by sphere (the
+coupled slab's spheres are a subset of the full one's: the same packing); with two or more
+full members, the coupled runs are also judged against the full model's own scatter
+(orchestrator.ensemble, orchestrator.verdicts). Writes comparison.json and PNGs."""
 import json
+from pathlib import Path
 
 import numpy as np
 
 from common.files import save_figure, write_json
+from orchestrator import ensemble, verdicts
 from orchestrator.run.outputs import damage_map, read_sensors
 
+# the keys a full and a coupled member must share to be compared
+SAME = ("scale", "radius", "impactor_speed", "impactor_side", "impactor_gap", "steps",
+        "dt_safety", "de_zone", "full_width", "layers")
+PLAN_CELL = 0.05   # m, the plan grid of the mean damage maps
 
-def compare(full_dir, coupled_dir, out):
-    """Coupled against full: sensor histories, damage, cost. Writes comparison.json + PNGs."""
+
+class Run:
+    """A slab results folder, read back."""
+
+    def __init__(self, folder):
+        self.folder = Path(folder)
+        summary = self.folder / "summary.json"
+        if not summary.is_file():
+            raise FileNotFoundError(f"{self.folder} is not a slab results folder (no summary.json)")
+        self.summary = json.loads(summary.read_text())
+        if "spec" not in self.summary or "model" not in self.summary:
+            raise ValueError(f"{self.folder} is not a slab run (its summary.json has no slab spec)")
+        self.model, self.spec = self.summary["model"], self.summary["spec"]
+        self.seed = self.spec.get("seed", 1)
+        self.t, self.names, self.h = read_sensors(self.folder / "sensors.csv")
+        with np.load(self.folder / "damage.npz") as d:
+            self.damage = {k: d[k] for k in d.files}
+
+
+def members(folders, model):
+    """{seed: Run} of run folders or ensemble folders (seed-N subfolders, `slab --seeds`)."""
     runs = {}
-    for key, folder in (("full", full_dir), ("coupled", coupled_dir)):
-        summary = json.loads((folder / "summary.json").read_text())
-        if summary["model"] != key:
-            raise ValueError(f"{folder} holds a {summary['model']!r} run, expected {key!r}")
-        runs[key] = (summary, read_sensors(folder / "sensors.csv"), np.load(folder / "damage.npz"))
-    (sf, (tf, names, hf), df), (sc, (tc, names_c, hc), dc) = runs["full"], runs["coupled"]
-    if names != names_c:
-        raise ValueError(f"sensor names differ: {names} vs {names_c}")
-    if sf["spec"]["radius"] != sc["spec"]["radius"]:
-        raise ValueError("the two runs have different sphere radii: not the same slab")
-    t_end = min(tf[-1], tc[-1])
-    t = tf[tf <= t_end]
-    sensors = {}
-    for i, name in enumerate(names):
-        full_z = hf[tf <= t_end, i, 2]
-        coupled_z = np.interp(t, tc, hc[:, i, 2])
-        peak_f, peak_c = np.abs(full_z).max(), np.abs(coupled_z).max()
-        sensors[name] = {
-            "peak_full": peak_f, "peak_coupled": peak_c,
-            "peak_time_full_s": t[np.argmax(np.abs(full_z))],
-            "peak_time_coupled_s": t[np.argmax(np.abs(coupled_z))],
-            "peak_ratio": peak_c / peak_f if peak_f > 0 else None,
-            "nrms": float(np.sqrt(np.mean((coupled_z - full_z) ** 2)) / peak_f) if peak_f > 0 else None,
-        }
-    # damage maps: the coupled slab spheres are a subset of the full ones (same packing)
-    where = {int(k): j for j, k in enumerate(df["slab_index"])}
-    match = np.array([where[int(k)] for k in dc["slab_index"]])
-    in_zone = dc["in_de_zone"]
-    d_full, d_coupled = df["damage"][-1][match], dc["damage"][-1]
-    vol_c = 4.0 / 3.0 * np.pi * dc["radius"] ** 3
-    damage = {
-        "broken_links_full": sf["damage"]["broken_links"],
-        "broken_links_coupled": sc["damage"]["broken_links"],
-        "damaged_volume_full_m3": sf["damage"]["damaged_volume_m3"],
-        "damaged_volume_coupled_m3": sc["damage"]["damaged_volume_m3"],
-        "damage_map_correlation_de_zone": _correlation(d_full[in_zone], d_coupled[in_zone]),
-        "damaged_volume_de_zone_full_m3": float(d_full[in_zone] @ vol_c[in_zone]),
-        "damaged_volume_de_zone_coupled_m3": float(d_coupled[in_zone] @ vol_c[in_zone]),
-    }
-    v_f, v_c = damage["damaged_volume_full_m3"], damage["damaged_volume_coupled_m3"]
-    damage["damaged_volume_ratio"] = v_c / v_f if v_f > 0 else None
-    speedup = sf["s_per_step"] / sc["s_per_step"]
-    result = {
-        "full": str(full_dir), "coupled": str(coupled_dir), "compared_until_s": t_end,
-        "full_elastic_outside": sf["spec"].get("elastic_outside", False),
-        "sensors": sensors, "damage": damage,
-        "speedup_per_step": speedup,
-        "sphere_count_ratio": sf["n_spheres"] / sc["n_spheres"],
-        "projected_100k_steps_s": {"full": 1e5 * sf["s_per_step"], "coupled": 1e5 * sc["s_per_step"]},
-        "goals": {
-            "peaks_within_10_percent": all(s["peak_ratio"] is not None and abs(s["peak_ratio"] - 1) <= 0.10
-                                           for s in sensors.values()),
-            "history_nrms_at_most_15_percent": all(s["nrms"] is not None and s["nrms"] <= 0.15
-                                                   for s in sensors.values()),
-            "damaged_volume_within_15_percent": damage["damaged_volume_ratio"] is not None
-                                                and abs(damage["damaged_volume_ratio"] - 1) <= 0.15,
-        },
-    }
+    for folder in map(Path, folders):
+        parts = sorted(folder.glob("seed-*/summary.json")) if not (folder / "summary.json").is_file() \
+            else [folder / "summary.json"]
+        if not parts:
+            raise FileNotFoundError(f"{folder} is not a slab results folder (no summary.json) "
+                                    f"nor an ensemble of them (no seed-*/summary.json)")
+        for part in parts:
+            run = Run(part.parent)
+            if run.model != model:
+                raise ValueError(f"{run.folder} holds a {run.model!r} run, expected {model!r}")
+            if run.seed in runs:
+                raise ValueError(f"two {model} runs have seed {run.seed}: {runs[run.seed].folder} "
+                                 f"and {run.folder}")
+            runs[run.seed] = run
+    return runs
+
+
+def load(full_dirs, coupled_dirs, verdict=False):
+    """({seed: Run} full, {seed: Run} coupled), checked comparable; `verdict`: a verdict
+    against the full model's scatter is asked for, which needs two full runs at least."""
+    full, coupled = members(full_dirs, "full"), members(coupled_dirs, "coupled")
+    if verdict:
+        verdicts.check_members(len(full), len(coupled))
+    ensemble.check_same_kind({f"{r.model} {s}": {k: r.spec.get(k) for k in SAME}
+                              for runs in (full, coupled) for s, r in runs.items()})
+    names = next(iter(full.values())).names
+    for r in [*full.values(), *coupled.values()]:
+        if r.names != names:
+            raise ValueError(f"{r.folder}: sensors {r.names}, the others {names}")
+    return full, coupled
+
+
+def compare(full, coupled, out, verdict=False):
+    """comparison.json and PNGs in `out` for the runs of `load` (with two or more full runs,
+    the verdict against their scatter is given anyway)."""
+    names = next(iter(full.values())).names
+    pairs = {s: pair(full[s], coupled[s]) for s in sorted(full.keys() & coupled.keys())}
+    result = {"full": [str(r.folder) for r in full.values()],
+              "coupled": [str(r.folder) for r in coupled.values()], "pairs": pairs}
+    if len(pairs) == 1 and len(full) == len(coupled) == 1:
+        result.update(next(iter(pairs.values())))         # one pair: its figures at the top
+    if verdict or len(full) >= verdicts.MIN_FULL_MEMBERS:
+        result["ensemble"] = _ensemble(full, coupled, names, out)
     write_json(out / "comparison.json", result)
-    _plot_comparison(out, names, (tf, hf), (tc, hc), dc["positions"], d_full, d_coupled, in_zone)
+    for seed in pairs:
+        _plot_pair(out, f"-seed-{seed}" if len(pairs) > 1 else "", names, full[seed],
+                   coupled[seed])
     return result
 
 
-def _correlation(a, b):
-    if a.size < 2 or a.std() == 0 or b.std() == 0:
-        return None
-    return float(np.corrcoef(a, b)[0, 1])
+def pair(f, c):
+    """A same-seed pair: sensor peaks, nRMS and peak times (z), damage sphere by sphere in
+    the DE zone, cost, and the slab issue's goals."""
+    t_end = min(f.t[-1], c.t[-1])
+    t = f.t[f.t <= t_end]
+    sensors = {}
+    for i, name in enumerate(f.names):
+        fz, cz = f.h[f.t <= t_end, i, 2], np.interp(t, c.t, c.h[:, i, 2])
+        peak_f, peak_c = np.abs(fz).max(), np.abs(cz).max()
+        sensors[name] = {
+            "peak_full": peak_f, "peak_coupled": peak_c,
+            "peak_time_full_s": t[np.argmax(np.abs(fz))],
+            "peak_time_coupled_s": t[np.argmax(np.abs(cz))],
+            "peak_ratio": _one(ensemble.ratio(peak_c, peak_f)),
+            "nrms": _one(ensemble.nrms(cz[:, None], fz[:, None]))}
+    damage = _pair_damage(f, c)
+    sf, sc = f.summary, c.summary
+    return {
+        "compared_until_s": t_end, "full_elastic_outside": f.spec.get("elastic_outside", False),
+        "sensors": sensors, "damage": damage,
+        "speedup_per_step": sf["s_per_step"] / sc["s_per_step"],
+        "sphere_count_ratio": sf["n_spheres"] / sc["n_spheres"],
+        "projected_100k_steps_s": {"full": 1e5 * sf["s_per_step"],
+                                   "coupled": 1e5 * sc["s_per_step"]},
+        "goals": verdicts.absolute_goals({k: v["nrms"] for k, v in sensors.items()},
+                                         {k: v["peak_ratio"] for k, v in sensors.items()},
+                                         damage["damaged_volume_ratio"]),
+    }
 
 
-def _plot_comparison(out, names, full, coupled, positions, d_full, d_coupled, in_zone):
+def _one(value):
+    """A figure for JSON: None where undefined (a zero reference)."""
+    return ensemble.figures(value)[0]
+
+
+def _pair_damage(f, c):
+    match, d_full, d_coupled, in_zone = _matched_damage(f, c)
+    vol_c = 4.0 / 3.0 * np.pi * c.damage["radius"] ** 3
+    sf, sc = f.summary["damage"], c.summary["damage"]
+    return {
+        "broken_links_full": sf["broken_links"], "broken_links_coupled": sc["broken_links"],
+        "damaged_volume_full_m3": sf["damaged_volume_m3"],
+        "damaged_volume_coupled_m3": sc["damaged_volume_m3"],
+        "damaged_volume_ratio": _one(ensemble.ratio(sc["damaged_volume_m3"],
+                                                    sf["damaged_volume_m3"])),
+        "damage_map_correlation_de_zone": ensemble.correlation(d_full[in_zone], d_coupled[in_zone]),
+        "damaged_volume_de_zone_full_m3": float(d_full[in_zone] @ vol_c[in_zone]),
+        "damaged_volume_de_zone_coupled_m3": float(d_coupled[in_zone] @ vol_c[in_zone]),
+    }
+
+
+def _matched_damage(f, c):
+    """The final damage of the full run at the coupled run's spheres (same packing)."""
+    where = {int(k): j for j, k in enumerate(f.damage["slab_index"])}
+    match = np.array([where[int(k)] for k in c.damage["slab_index"]], int)
+    return match, f.damage["damage"][-1][match], c.damage["damage"][-1], c.damage["in_de_zone"]
+
+
+def _ensemble(full, coupled, names, out):
+    """The coupled members against the full ensemble: scatter, deviations, verdicts."""
+    from orchestrator.ensemble_plots import plot_histories, plot_mean_damage_maps
+    z = lambda runs: {s: (r.t, r.h[:, :, 2]) for s, r in runs.items()}
+    hist = ensemble.histories(z(full), z(coupled), names)
+    figures = lambda runs: {s: r.summary["damage"] for s, r in runs.items()}
+    dmg = ensemble.damage(figures(full), figures(coupled))
+    maps = ensemble.mean_damage_maps(_maps(full), _maps(coupled, de_zone=True), (0.0, 0.0),
+                                     (2.5, 2.0), PLAN_CELL)
+    plot_histories(out / "ensemble_histories.png", z(full), z(coupled), names,
+                   ylabel="z displacement (mm)")
+    plot_mean_damage_maps(out / "ensemble_damage_maps.png", maps, len(full), len(coupled))
+    result = {"histories": hist, "damage": dmg,
+              "mean_damage_map_correlation": maps["correlation"],
+              "goals": verdicts.ensemble_goals(hist, dmg)}
+    if coupled:
+        result["within_full_scatter"] = verdicts.within_full_scatter(hist, dmg)
+    return result
+
+
+def _maps(runs, de_zone=False):
+    """{seed: (positions, final damage, volume)} (the DE zone's spheres only, for coupled)."""
+    out = {}
+    for s, r in runs.items():
+        d = r.damage
+        keep = d["in_de_zone"] if de_zone else np.ones(len(d["radius"]), bool)
+        out[s] = (d["positions"][keep], d["damage"][-1][keep],
+                  4.0 / 3.0 * np.pi * d["radius"][keep] ** 3)
+    return out
+
+
+def _plot_pair(out, suffix, names, f, c):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True)
     for ax, i, name in zip(axes.ravel(), range(len(names)), names):
-        for label, (t, h), style in (("full", full, "-"), ("coupled", coupled, "--")):
-            ax.plot(t * 1e3, h[:, i, 2] * 1e3, style, label=label)
+        for label, r, style in (("full", f, "-"), ("coupled", c, "--")):
+            ax.plot(r.t * 1e3, r.h[:, i, 2] * 1e3, style, label=label)
         ax.set(title=name, xlabel="time (ms)", ylabel="z displacement (mm)")
         ax.legend()
     fig.tight_layout()
-    save_figure(fig, out / "histories.png")
+    save_figure(fig, out / f"histories{suffix}.png")
+    _, d_full, d_coupled, in_zone = _matched_damage(f, c)
+    positions = c.damage["positions"][in_zone]
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
-    damage_map(axes[0], positions[in_zone], d_full[in_zone], "full: damage in the DE zone")
-    damage_map(axes[1], positions[in_zone], d_coupled[in_zone], "coupled: damage in the DE zone")
+    damage_map(axes[0], positions, d_full[in_zone], f"full (seed {f.seed}): damage in the DE zone")
+    damage_map(axes[1], positions, d_coupled[in_zone], f"coupled (seed {c.seed}): damage in the DE zone")
     fig.tight_layout()
-    save_figure(fig, out / "damage_maps.png")
+    save_figure(fig, out / f"damage_maps{suffix}.png")

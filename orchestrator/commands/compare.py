@@ -1,31 +1,51 @@
-"""`compare`: a coupled slab run against a full-YADE run of the same slab."""
+"""`compare`: coupled slab runs against full-YADE runs of the same slab: one of each, or
+ensembles over packing seeds (folders made by `slab --seeds`, or several run folders)."""
 from orchestrator.commands._options import add_out
 
 NAME = "compare"
-HELP = "compare FULL_DIR COUPLED_DIR: sensor histories, damage maps, speed-up"
+HELP = ("compare FULL COUPLED: sensor histories, damage maps, speed-up; FULL and COUPLED may be "
+        "ensembles (slab --seeds folders, or --full/--coupled with several runs)")
 
 
 def configure(p):
-    p.add_argument("full_dir")
-    p.add_argument("coupled_dir")
+    p.add_argument("full_dir", nargs="?", help="full run folder, or an ensemble folder")
+    p.add_argument("coupled_dir", nargs="?", help="coupled run folder, or an ensemble folder")
+    p.add_argument("--full", nargs="+", default=[], metavar="DIR", help="more full runs")
+    p.add_argument("--coupled", nargs="+", default=[], metavar="DIR", help="more coupled runs")
+    p.add_argument("--verdict", action="store_true",
+                   help="judge the coupled runs against the full runs' own scatter (needs 2 full "
+                        "runs at least; given anyway with 2 or more)")
     add_out(p, "folder for comparison.json and plots")
 
 
 def run(args):
-    from pathlib import Path
-    from cases.slab import compare
-    from orchestrator.run.folder import prepare_out
-    for d in (args.full_dir, args.coupled_dir):
-        if not (Path(d) / "summary.json").is_file():
-            raise FileNotFoundError(f"{d} is not a slab results folder (no summary.json)")
+    from cases.slab.compare import compare, load
+    from orchestrator.run.folder import check_out, prepare_out
+    full = [d for d in [args.full_dir] if d] + args.full
+    coupled = [d for d in [args.coupled_dir] if d] + args.coupled
+    if not full:
+        raise ValueError("give the full run(s): FULL_DIR or --full DIR ...")
+    check_out(args.out, args.force)
+    runs = load(full, coupled, verdict=args.verdict)   # every refusal before the folder is made
     out = prepare_out(args.out, args.force)
-    r = compare(Path(args.full_dir), Path(args.coupled_dir), out)
-    for name, s in r["sensors"].items():
-        print(f"{name:14s} peak ratio {s['peak_ratio']:.3f}  nRMS {s['nrms']:.3f}  peak at "
-              f"{s['peak_time_full_s'] * 1e3:.2f} ms (full), {s['peak_time_coupled_s'] * 1e3:.2f} ms"
-              " (coupled)")
-    print(f"damaged volume ratio {r['damage']['damaged_volume_ratio']}, damage-map correlation "
-          f"{r['damage']['damage_map_correlation_de_zone']}, speed-up per step "
-          f"{r['speedup_per_step']:.2f} (sphere ratio {r['sphere_count_ratio']:.2f})")
-    print(f"goals: {r['goals']}; results in {out}")
+    r = compare(*runs, out, verdict=args.verdict)
+    for seed, p in r["pairs"].items():
+        for name, s in p["sensors"].items():
+            print(f"seed {seed} {name:14s} peak ratio {_f(s['peak_ratio'])}  nRMS "
+                  f"{_f(s['nrms'])}  peak at {s['peak_time_full_s'] * 1e3:.2f} ms (full), "
+                  f"{s['peak_time_coupled_s'] * 1e3:.2f} ms (coupled)")
+        print(f"seed {seed} damaged volume ratio {_f(p['damage']['damaged_volume_ratio'])}, "
+              f"speed-up per step {p['speedup_per_step']:.2f} (sphere ratio "
+              f"{p['sphere_count_ratio']:.2f}); goals {p['goals']}")
+    if "within_full_scatter" in r.get("ensemble", {}):
+        for name, v in r["ensemble"]["within_full_scatter"]["sensors"].items():
+            n = v["nrms"]
+            print(f"{name:14s} coupled nRMS to the full mean {_f(n['coupled_max'])} (largest), "
+                  f"full scatter {_f(n['full_leave_one_out_max'])}: "
+                  f"{'within' if n['within'] else 'OUTSIDE'}{' (weak: 2 full runs)' if n['weak'] else ''}")
+    print(f"results in {out}")
     return 0
+
+
+def _f(x):
+    return "n/a" if x is None else f"{x:.3f}"

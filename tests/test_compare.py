@@ -1,0 +1,101 @@
+"""`compare` of slab runs and ensembles, on synthetic results folders with known figures."""
+import json
+
+import numpy as np
+import pytest
+
+from common.files import save_npz, write_json
+from orchestrator.cli import main
+from orchestrator.run.outputs import write_sensors
+
+NAMES = ["under_impact", "de_zone", "bridging", "fe_node"]
+T = np.linspace(0.0, 1e-3, 101)
+SHAPE = np.sin(np.pi * T / T[-1])          # peak 1 at mid-window
+
+
+def member(folder, model, seed, amplitude, scale="small", s_per_step=1.0, volume=1.0):
+    """A results folder whose z histories are amplitude × SHAPE on every sensor; 10 slab
+    spheres (the coupled model keeps the first 6, 4 of them in its DE zone)."""
+    folder.mkdir(parents=True)
+    spec = {"scale": scale, "radius": 0.025, "impactor_speed": 40.0, "impactor_side": 0.3,
+            "impactor_gap": 0.002, "steps": 100, "dt_safety": 0.15, "de_zone": 0.6,
+            "full_width": True, "layers": 3, "seed": seed, "elastic_outside": False}
+    write_json(folder / "summary.json", {
+        "model": model, "spec": spec, "s_per_step": s_per_step, "n_spheres": 10 if model ==
+        "full" else 6, "damage": {"damaged_volume_m3": volume, "broken_links": 10 * volume}})
+    h = np.zeros((len(T), len(NAMES), 3))
+    h[:, :, 2] = amplitude * SHAPE[:, None]
+    write_sensors(folder / "sensors.csv", NAMES, T, h)
+    n = 10 if model == "full" else 6
+    damage = np.linspace(0, 1, 10)[:n]
+    save_npz(folder / "damage.npz", times=np.array([0.0, T[-1]]),
+             damage=np.array([np.zeros(n), damage]), positions=np.random.default_rng(seed)
+             .uniform((0, 0, 0), (2.5, 2.0, 0.28), (n, 3)), radius=np.full(n, 0.025),
+             in_de_zone=np.arange(n) < 4, slab_index=np.arange(n))
+    return folder
+
+
+def test_one_pair_keeps_its_figures_at_the_top(tmp_path):
+    member(tmp_path / "f", "full", 1, 2.0, s_per_step=3.0)
+    member(tmp_path / "c", "coupled", 1, 1.5, volume=0.5)
+    assert main(["compare", str(tmp_path / "f"), str(tmp_path / "c"), "--out",
+                 str(tmp_path / "cmp")]) == 0
+    r = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+    s = r["sensors"]["bridging"]
+    assert s["peak_ratio"] == pytest.approx(0.75, rel=1e-12)
+    # nRMS of 0.5 SHAPE against a peak of 2: 0.25 × rms(SHAPE)
+    assert s["nrms"] == pytest.approx(0.25 * np.sqrt(np.mean(SHAPE**2)), rel=1e-9)
+    assert r["speedup_per_step"] == 3.0 and r["damage"]["damaged_volume_ratio"] == 0.5
+    assert r["damage"]["damage_map_correlation_de_zone"] == pytest.approx(1.0)
+    assert "ensemble" not in r and r["goals"]["peaks_within_10_percent"] is False
+
+
+def test_ensembles_are_judged_against_the_full_scatter(tmp_path):
+    """Full members 0.9, 1.0, 1.1 × SHAPE: member i's leave-one-out deviation is |a_i − mean of
+    the others| / mean of the others; coupled 1.02 lies inside, 1.5 outside."""
+    for seed, a in zip((1, 2, 3), (0.9, 1.0, 1.1)):
+        member(tmp_path / "full" / f"seed-{seed}", "full", seed, a)
+    for seed, a in zip((1, 2), (1.02, 1.0)):
+        member(tmp_path / "good" / f"seed-{seed}", "coupled", seed, a)
+    member(tmp_path / "bad" / "seed-1", "coupled", 1, 1.5)
+    for name in ("good", "bad"):
+        assert main(["compare", str(tmp_path / "full"), str(tmp_path / name), "--out",
+                     str(tmp_path / f"cmp-{name}")]) == 0
+    good = json.loads((tmp_path / "cmp-good" / "comparison.json").read_text())
+    bad = json.loads((tmp_path / "cmp-bad" / "comparison.json").read_text())
+    scatter = good["ensemble"]["histories"]["full_scatter"]["fe_node"]
+    rms = np.sqrt(np.mean(SHAPE**2))
+    expected = [abs(0.9 - 1.05) / 1.05 * rms, 0.0, abs(1.1 - 0.95) / 0.95 * rms]
+    # sensors.csv keeps 10 significant digits: 5e-10 relative per value
+    assert scatter["nrms_leave_one_out"] == pytest.approx(expected, abs=2e-9)
+    verdict = good["ensemble"]["within_full_scatter"]["sensors"]["fe_node"]["nrms"]
+    assert verdict["within"] and not verdict["weak"] and verdict["n_full"] == 3
+    assert not bad["ensemble"]["within_full_scatter"]["sensors"]["fe_node"]["nrms"]["within"]
+    assert set(good["pairs"]) == {"1", "2"}
+    for png in ("ensemble_histories.png", "ensemble_damage_maps.png", "histories-seed-1.png"):
+        assert (tmp_path / "cmp-good" / png).stat().st_size > 0
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(scale="medium"), "members differ in scale"),
+    (dict(model="full"), "two full runs have seed 1"),
+])
+def test_members_that_cannot_be_compared_are_refused(tmp_path, capsys, change, message):
+    member(tmp_path / "full" / "seed-1", "full", 1, 1.0)
+    member(tmp_path / "full" / "seed-2", "full", 2, 1.0)
+    member(tmp_path / "c", change.get("model", "coupled"), 1, 1.0, change.get("scale", "small"))
+    args = ["compare", str(tmp_path / "full")]
+    args += ["--full", str(tmp_path / "c")] if "model" in change else [str(tmp_path / "c")]
+    args += ["--out", str(tmp_path / "cmp")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "cmp").exists()
+
+
+def test_a_verdict_needs_two_full_runs(tmp_path, capsys):
+    member(tmp_path / "f", "full", 1, 1.0)
+    member(tmp_path / "c", "coupled", 1, 1.0)
+    assert main(["compare", str(tmp_path / "f"), str(tmp_path / "c"), "--verdict", "--out",
+                 str(tmp_path / "cmp")]) == 2
+    assert "needs at least 2 full runs" in capsys.readouterr().err
