@@ -156,7 +156,8 @@ def run(spec, model, out, quiet=False, resume=False):
     m = SlabModel(spec, model)
     build_s = perf_counter() - t_build
     impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
-    info = {"model": model, "spec": asdict(spec), "n_slab_spheres": len(m.slab_ids),
+    info = {"model": model, "seed": spec.seed, "spec": asdict(spec),
+            "n_slab_spheres": len(m.slab_ids),
             "build_s": build_s, "impact_energy_J": impact_energy,
             "links_kept_elastic": m.elastic_links}
     schedule = Schedule(spec.steps, spec.sample_every, spec.check_every, spec.output_every,
