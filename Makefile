@@ -7,14 +7,30 @@ export OMP_NUM_THREADS ?= 1
 export OMPI_ALLOW_RUN_AS_ROOT=1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
-.PHONY: setup run test test-slow bench wave1d-study clean
+.PHONY: setup setup-paraview setup-image-build run render test test-slow docker-test bench \
+        wave1d-study clean
 
-# Idempotent: re-runs apt only when the package list changed.
+# Idempotent: re-runs apt only when the package list changed. Without Debian's recommended
+# packages (about 1 GB more: LLVM, valgrind, numba, docs; nothing the stack imports).
 setup: $(STAMP)
 $(STAMP): docker/packages.txt
 	apt-get update
-	DEBIAN_FRONTEND=noninteractive apt-get install -y $(PKGS)
+	DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $(PKGS)
 	$(PY) -c "import orchestrator.env as e; e.check()"
+	touch $@
+
+# Optional package sets (same idempotent stamp scheme): ParaView for `render`, and the tools that
+# build and run the Docker image without a Docker engine (`make docker-test`).
+setup-paraview: .setup-paraview-done
+.setup-paraview-done: docker/packages-paraview.txt
+	apt-get update
+	DEBIAN_FRONTEND=noninteractive apt-get install -y $(shell grep -v '^\#' docker/packages-paraview.txt)
+	touch $@
+
+setup-image-build: .setup-image-build-done
+.setup-image-build-done: docker/packages-image-build.txt
+	apt-get update
+	DEBIAN_FRONTEND=noninteractive apt-get install -y $(shell grep -v '^\#' docker/packages-image-build.txt)
 	touch $@
 
 # The main job at small scale: the slab impact, full YADE and coupled, then the comparison; and
@@ -32,6 +48,13 @@ test: setup
 
 test-slow: setup
 	$(PY) -m pytest -q -m slow tests
+
+# The Docker image built from docker/Dockerfile and its entrypoint run on a 2-row table inside
+# a container (a Docker engine, else podman/buildah and a local debian base: ~10-15 min), then
+# the container's outputs checked on the host. Not part of `make test`.
+docker-test: setup setup-image-build
+	docker/test-image.sh results/docker-test
+	DOCKER_TEST_OUT=results/docker-test $(PY) -m pytest -q -m slow tests/test_docker_image.py
 
 # The paper's 1D spurious-reflection study (Figs. 4-7), about 3 min: results/wave1d-study/
 wave1d-study: setup
