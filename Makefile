@@ -7,7 +7,7 @@ export OMP_NUM_THREADS ?= 1
 export OMPI_ALLOW_RUN_AS_ROOT=1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
-.PHONY: setup setup-paraview setup-image-build run render test test-slow docker-test bench \
+.PHONY: setup setup-paraview setup-image-build setup-slurm run render test test-slow docker-test bench \
         wave1d-study clean
 
 # Idempotent: re-runs apt only when the package list changed. Without Debian's recommended
@@ -25,6 +25,12 @@ setup-paraview: .setup-paraview-done
 .setup-paraview-done: docker/packages-paraview.txt
 	apt-get update
 	DEBIAN_FRONTEND=noninteractive apt-get install -y $(shell grep -v '^\#' docker/packages-paraview.txt)
+	touch $@
+
+setup-slurm: .setup-slurm-done
+.setup-slurm-done: docker/packages-slurm.txt
+	apt-get update
+	DEBIAN_FRONTEND=noninteractive apt-get install -y $(shell grep -v '^\#' docker/packages-slurm.txt)
 	touch $@
 
 setup-image-build: .setup-image-build-done
