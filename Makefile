@@ -48,6 +48,16 @@ run: setup
 	$(PY) -m orchestrator compare results/slab-small/full results/slab-small/coupled --out results/slab-small/compare --force
 	$(PY) -m orchestrator slab --model full --elastic-outside --scale small --out results/slab-small/full-elastic-outside --force
 	$(PY) -m orchestrator compare results/slab-small/full-elastic-outside results/slab-small/coupled --out results/slab-small/compare-elastic-outside --force
+	@$(MAKE) --no-print-directory render
+
+# ParaView pictures of the coupled and full small slabs (cut through the impact point) and a
+# film of the coupled one, in results/slab-small/*/render/; when ParaView is missing, says how
+# to install it.
+render:
+	@if command -v pvpython >/dev/null && command -v xvfb-run >/dev/null; then \
+	  $(PY) -m orchestrator render results/slab-small/coupled --animate --force && \
+	  $(PY) -m orchestrator render results/slab-small/full --force; \
+	else echo "pictures skipped: ParaView is not installed (make setup-paraview installs it)"; fi
 
 test: setup
 	$(PY) -m pytest -q tests

@@ -4,11 +4,11 @@ X display even offscreen). Uses only ParaView's own modules, not the project's.
 
 JOB.json: {"run": folder, "out": folder, "times": [s, ...] or null (a third, two thirds and
 the end of the run), "cut": [x, y, z] or null (the model's centre), "animate": bool (also
-every frame as out/animation.avi, Motion JPEG)}. The model is cut by the plane y = cut[1] and the half
-y < cut[1] is shown from the cut's side: spheres (`spheres.pvd`) as shaded spheres of their
-radius coloured by damage, the FE part (`fe.xdmf`) as a surface coloured by displacement
-magnitude, each on one colour range for all pictures. Prints one JSON line per file written:
-{"file": path, "times": [frame times shown]}.
+every frame as out/animation.avi, Motion JPEG)}. The model is cut by the plane y = cut[1]
+and the half y < cut[1] is shown from the cut's side: spheres (`spheres.pvd`) as shaded
+spheres of their radius coloured by damage, the FE part (`fe.xdmf`) as a surface coloured by
+displacement magnitude, each on one colour range for all pictures. Prints one JSON line per
+file written: {"file": path, "times": [frame times shown]}.
 """
 import json
 import sys

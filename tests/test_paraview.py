@@ -119,3 +119,14 @@ def test_the_cut_goes_through_the_impact_sensor_else_the_centre(tmp_path):
     assert cut_point(tmp_path) == [0.6, 0.59, 0.02]
     (tmp_path / "summary.json").write_text(json.dumps({"sensors": {}}))
     assert cut_point(tmp_path) is None
+
+
+def test_make_run_ends_with_pictures_or_says_how_to_install_paraview(tmp_path):
+    make = (ROOT / "Makefile").read_text()
+    run = make[make.index("\nrun: "):make.index("\n\n", make.index("\nrun: "))]
+    assert run.splitlines()[-1].strip() == "@$(MAKE) --no-print-directory render"
+    proc = subprocess.run([shutil.which("make"), "-s", "render"], cwd=ROOT, text=True,
+                          capture_output=True, env={"PATH": str(tmp_path)})
+    assert proc.returncode == 0
+    assert proc.stdout == ("pictures skipped: ParaView is not installed "
+                           "(make setup-paraview installs it)\n")
