@@ -10,7 +10,8 @@
 # isolation bind mounts are empty and `podman run` may be refused, so the table is copied into
 # a buildah container, the entrypoint runs there (`buildah run`) writing to /tmp/runs, and the
 # results are copied out of the container's file system.
-# Writes OUT/image.json (engine, base, build seconds, image size) and OUT/sweep/ (the batch).
+# Writes OUT/image.json (engine, where the base came from: registry, mmdebstrap or local (found
+# already), build seconds, image size) and OUT/sweep/ (the batch).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:?usage: docker/test-image.sh OUT}
@@ -38,8 +39,9 @@ else
     command -v podman >/dev/null && command -v buildah >/dev/null || {
         echo "error: no Docker engine, and podman/buildah are missing: make setup-image-build" >&2
         exit 2; }
-    engine=podman base=registry
+    engine=podman base=local          # already there
     if ! podman image exists "$BASE"; then
+        base=registry
         if ! timeout 120 podman pull "$BASE"; then
             base=mmdebstrap
             tmp=$(mktemp -d)
