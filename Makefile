@@ -7,14 +7,36 @@ export OMP_NUM_THREADS ?= 1
 export OMPI_ALLOW_RUN_AS_ROOT=1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
-.PHONY: setup run validate test test-slow bench wave1d-study clean
+.PHONY: setup setup-paraview setup-image-build setup-slurm run validate render test test-slow \
+        docker-test bench wave1d-study clean
 
-# Idempotent: re-runs apt only when the package list changed.
+# Idempotent: re-runs apt only when the package list changed. Without Debian's recommended
+# packages (about 1 GB more: LLVM, valgrind, numba, docs; nothing the stack imports).
 setup: $(STAMP)
 $(STAMP): docker/packages.txt
 	apt-get update
-	DEBIAN_FRONTEND=noninteractive apt-get install -y $(PKGS)
+	DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $(PKGS)
 	$(PY) -c "import orchestrator.env as e; e.check()"
+	touch $@
+
+# Optional package sets (same idempotent stamp scheme): ParaView for `render`, and the tools that
+# build and run the Docker image without a Docker engine (`make docker-test`).
+setup-paraview: .setup-paraview-done
+.setup-paraview-done: docker/packages-paraview.txt
+	apt-get update
+	DEBIAN_FRONTEND=noninteractive apt-get install -y $(shell grep -v '^\#' docker/packages-paraview.txt)
+	touch $@
+
+setup-slurm: .setup-slurm-done
+.setup-slurm-done: docker/packages-slurm.txt
+	apt-get update
+	DEBIAN_FRONTEND=noninteractive apt-get install -y $(shell grep -v '^\#' docker/packages-slurm.txt)
+	touch $@
+
+setup-image-build: .setup-image-build-done
+.setup-image-build-done: docker/packages-image-build.txt
+	apt-get update
+	DEBIAN_FRONTEND=noninteractive apt-get install -y $(shell grep -v '^\#' docker/packages-image-build.txt)
 	touch $@
 
 # The main job at small scale: the slab impact, full YADE and coupled, on three packings each
@@ -25,6 +47,7 @@ run: setup
 	$(PY) -m orchestrator slab --model full --scale small --seeds $(SEEDS) --out results/slab-small/full --force
 	$(PY) -m orchestrator slab --model coupled --scale small --seeds $(SEEDS) --out results/slab-small/coupled --force
 	$(PY) -m orchestrator compare results/slab-small/full results/slab-small/coupled --out results/slab-small/compare --force
+	@$(MAKE) --no-print-directory render
 
 # Heavier reference ensembles (docs/slab.md): medium scale, three seeds of each model, and
 # the full model kept elastic outside the DE zone (the coupling error alone); about 1 h on 2 cores.
@@ -35,11 +58,27 @@ validate: setup
 	$(PY) -m orchestrator slab --model full --elastic-outside --scale medium --seeds $(SEEDS) --out results/slab-medium/full-elastic-outside --force
 	$(PY) -m orchestrator compare results/slab-medium/full-elastic-outside results/slab-medium/coupled --out results/slab-medium/compare-elastic-outside --force
 
+# ParaView pictures of the coupled and full small slabs of seed 1 (cut through the impact
+# point) and a film of the coupled one, in results/slab-small/*/seed-1/render/; when ParaView
+# is missing, says how to install it.
+render:
+	@if command -v pvpython >/dev/null && command -v xvfb-run >/dev/null; then \
+	  $(PY) -m orchestrator render results/slab-small/coupled/seed-1 --animate --force && \
+	  $(PY) -m orchestrator render results/slab-small/full/seed-1 --force; \
+	else echo "pictures skipped: ParaView is not installed (make setup-paraview installs it)"; fi
+
 test: setup
 	$(PY) -m pytest -q tests
 
 test-slow: setup
 	$(PY) -m pytest -q -m slow tests
+
+# The Docker image built from docker/Dockerfile and its entrypoint run on a 2-row table inside
+# a container (a Docker engine, else podman/buildah and a local debian base: ~10-15 min), then
+# the container's outputs checked on the host. Not part of `make test`.
+docker-test: setup setup-image-build
+	docker/test-image.sh results/docker-test
+	DOCKER_TEST_OUT=results/docker-test $(PY) -m pytest -q -m slow tests/test_docker_image.py
 
 # The paper's 1D spurious-reflection study (Figs. 4-7), about 3 min: results/wave1d-study/
 wave1d-study: setup

@@ -6,7 +6,13 @@ go to their own HDF5 file in a folder beside the .xdmf index (`fe.xdmf`, `fe/mes
 `fe/step000000.h5`, ...); every file is written under a temporary name and renamed, the index
 last, after each frame. A reader, or a run killed at any moment, only ever sees complete
 frames, and a resumed run carries on from a given frame.
+
+The index has one grid, the temporal collection, and every frame names the mesh file itself:
+a standalone mesh grid beside the collection (dolfinx's layout, reached by xi:include) is
+read by ParaView's XDMF (version 2) reader as a second block on top of the series, which
+doubles the points it shows.
 """
+import copy
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -19,8 +25,6 @@ from common.files import atomic
 _TOPOLOGY = {4: ("Tetrahedron", mesh.CellType.tetrahedron),
              8: ("Hexahedron", mesh.CellType.hexahedron)}
 _ATTRIBUTE_TYPE = {1: "Scalar", 3: "Vector", 9: "Tensor"}
-_MESH_XPOINTER = ("xpointer(/Xdmf/Domain/Grid[@GridType='Uniform'][1]"
-                  "/*[self::Topology or self::Geometry])")
 
 
 class XdmfSeries:
@@ -39,19 +43,18 @@ class XdmfSeries:
         self.model = model
         self.folder = self.path.with_suffix("")
         self.folder.mkdir(parents=True, exist_ok=True)
-        self._xml = ET.Element("Xdmf", {"Version": "3.0",
-                                        "xmlns:xi": "http://www.w3.org/2001/XInclude"})
+        self._xml = ET.Element("Xdmf", Version="3.0")
         domain = ET.SubElement(self._xml, "Domain")
-        grid = ET.SubElement(domain, "Grid", Name="mesh", GridType="Uniform")
         nv = model.cell_nodes.shape[1]
         name, cell_type = _TOPOLOGY[nv]
         # dolfinx numbers hexahedron vertices in tensor-product order; XDMF uses VTK's
         cells = model.cell_nodes[:, np.argsort(cpp.io.perm_vtk(cell_type, nv))]
-        topology = ET.SubElement(grid, "Topology", TopologyType=name,
-                                 NumberOfElements=str(len(cells)), NodesPerElement=str(nv))
-        geometry = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
+        topology = ET.Element("Topology", TopologyType=name, NumberOfElements=str(len(cells)),
+                              NodesPerElement=str(nv))
+        geometry = ET.Element("Geometry", GeometryType="XYZ")
         self._write_h5("mesh.h5", {"topology": (topology, cells.astype(np.int64)),
                                    "geometry": (geometry, model.nodes)})
+        self._mesh = (topology, geometry)     # copied into every frame
         self._series = ET.SubElement(domain, "Grid", Name="fe", GridType="Collection",
                                      CollectionType="Temporal")
         self._steps = 0
@@ -85,7 +88,7 @@ class XdmfSeries:
 
     def _frame(self, t, fields, written=False):
         grid = ET.SubElement(self._series, "Grid", Name=f"step{self._steps}", GridType="Uniform")
-        ET.SubElement(grid, "xi:include", xpointer=_MESH_XPOINTER)
+        grid.extend(copy.deepcopy(self._mesh))
         ET.SubElement(grid, "Time", Value=repr(float(t)))
         items = {}
         for name, (center, values) in fields.items():

@@ -3,8 +3,12 @@
 
 def check():
     import dolfinx
-    import scipy
+    import h5py
+    import meshio
+    import mpi4py
     import numpy
+    import petsc4py
+    import scipy
     from yade_side import import_yade
     yade = import_yade()
     import yade.config

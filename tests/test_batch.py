@@ -18,7 +18,7 @@ def test_dockerfile_installs_through_the_makefiles_setup_from_the_one_package_li
     assert "COPY . ." in docker
     # the Makefile's setup installs exactly the package list file, nothing else
     assert re.search(r"^PKGS\s*:=\s*\$\(shell grep -v '\^\\#' docker/packages\.txt\)$", make, re.M)
-    assert re.search(r"apt-get install -y \$\(PKGS\)$", make, re.M)
+    assert re.search(r"apt-get install -y --no-install-recommends \$\(PKGS\)$", make, re.M)
     assert not re.search(r"apt-get install", docker.replace("install -y --no-install-recommends make", ""))
 
 
