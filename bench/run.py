@@ -23,6 +23,7 @@ PLANS = {
     "full": {"small": (20, 200), "medium": (20, 200), "paper": (10, 200)},
     "quick": {"small": (5, 60), "medium": (5, 40)},
 }
+IMPACT_AFTER_S = 5e-4     # the second window: 0.5 ms into the run, the slab cracking under the impactor
 THREADS = (1, 2)
 TIMEOUT_S = 1800
 
@@ -49,7 +50,7 @@ def worker(task, threads=1):
 def measure(plan):
     raw = {"scales": {}, "threads": {}}
     for scale, (warmup, steps) in plan.items():
-        base = {"scale": scale, "warmup": warmup, "steps": steps}
+        base = {"scale": scale, "warmup": warmup, "steps": steps, "impact_after_s": IMPACT_AFTER_S}
         raw["scales"][scale] = {
             "full": worker(dict(base, model="full", output=True)),
             "coupled": worker(dict(base, model="coupled", output=True,

@@ -1,11 +1,13 @@
 """Measures one slab model in its own process (peak memory and OMP_NUM_THREADS are per process).
 
 Run by bench.run as `python -m bench.worker '<json task>'` with OMP_NUM_THREADS set; prints
-one JSON line. Task keys: scale, model ("full" | "coupled"), warmup, steps, and for the coupled model
-`variants` (coupling variants to time, e.g. ["diagonal", "full"]) and `output` (time the
-run loop's output work).
+one JSON line. Task keys: scale, model ("full" | "coupled"), warmup, steps, impact_after_s (a
+second window of `steps` steps that starts this long after the start, during the impact), and
+for the coupled model `variants` (coupling variants to time, e.g. ["diagonal", "full"]) and
+`output` (time the run loop's output work).
 """
 import json
+import math
 import os
 import resource
 import sys
@@ -131,6 +133,11 @@ def run(task):
     result["timing"] = timed_steps(m, task["warmup"], task["steps"])
     if task.get("output"):
         result["output"] = output_cost(m)
+    if task.get("impact_after_s"):
+        # the busiest part of a run: contacts, damage, link deletion, impact_after_s after
+        # the start (the impactor touches the slab within 0.1 ms)
+        advance = max(0, math.ceil(task["impact_after_s"] / m.dt) - task["warmup"] - task["steps"])
+        result["timing_impact"] = timed_steps(m, advance, task["steps"])
     # the run's peak: before the coupling pieces and the other variant are timed
     result["peak_rss_bytes"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     if m.stepper is not None:
