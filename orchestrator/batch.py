@@ -144,9 +144,25 @@ def _read_yade_table(path, text):
     columns = [h[:-1] if h.endswith("!") and len(h) > 1 else h for h in header]
     if len(set(columns)) != len(columns):
         raise ValueError(f"parameter table {path}: a column is named twice in {header}")
+    values = _repeat_above(path, columns, {n: lines[n] for n in data})
+    script_cols = [c for c in columns if c != "description" and not c.startswith("!")
+                   and "." not in c]
+    rows = _yade_rows(path, values, bangs or columns, script_cols)
+    if not script_cols:
+        return rows, None
+    # the script's columns only, on the original line numbers
+    copy = [""] * max(used)
+    copy[header_line - 1] = " ".join(script_cols + ["description"])
+    for row, n in zip(rows, data):
+        copy[n - 1] = " ".join([values[n][c] for c in script_cols] + [row.name])
+    return rows, "\n".join(copy) + "\n"
+
+
+def _repeat_above(path, columns, lines):
+    """{line: {column: value}}, '=' taking the value of the line above."""
     values, previous = {}, None
-    for n in data:
-        row = dict(zip(columns, lines[n]))
+    for n, words in lines.items():
+        row = dict(zip(columns, words))
         for col, value in row.items():
             if value == "=":
                 if previous is None:
@@ -154,14 +170,18 @@ def _read_yade_table(path, text):
                                      f"repeats the line above, but there is none")
                 row[col] = previous[col]
         values[n] = previous = row
-    script_cols = [c for c in columns if c != "description" and not c.startswith("!")
-                   and "." not in c]
+    return values
+
+
+def _yade_rows(path, values, naming, script_cols):
+    """A Row per table line: its name (the description, else the `naming` columns), its
+    case-file overrides, its script parameters, its threads."""
     rows, seen = [], set()
     for n, row in values.items():
         if "description" in row:
             name = row["description"]
         else:
-            name = ",".join(f"{c}={row[c]}" for c in (bangs or columns))
+            name = ",".join(f"{c}={row[c]}" for c in naming)
             name = name.replace("'", "").replace('"', "")
             if name in seen:
                 name += f"__line={n}__"
@@ -179,14 +199,7 @@ def _read_yade_table(path, text):
                                      f"case-file key")
                 overrides[col] = _python_to_toml(path, n, col, value)
         rows.append(Row(name, overrides, {c: row[c] for c in script_cols}, n, threads))
-    if not script_cols:
-        return rows, None
-    # the script's columns only, on the original line numbers
-    copy = [""] * max(used)
-    copy[header_line - 1] = " ".join(script_cols + ["description"])
-    for row, n in zip(rows, data):
-        copy[n - 1] = " ".join([values[n][c] for c in script_cols] + [row.name])
-    return rows, "\n".join(copy) + "\n"
+    return rows
 
 
 def _threads(path, n, col, value):

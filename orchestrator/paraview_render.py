@@ -86,31 +86,10 @@ def main(job_file):
     view.Background = [1.0, 1.0, 1.0]
     view.OrientationAxesVisibility = 1
     if spheres is not None:
-        d = Show(half(spheres, cut), view)
-        d.SetRepresentationType("Point Gaussian")
-        d.ShaderPreset = "Sphere"
-        d.ScaleByArray = 1
-        d.SetScaleArray = ["POINTS", "radius"]
-        d.UseScaleFunction = 0          # the radius itself, not mapped through a ramp
-        d.GaussianRadius = 1.0
-        ColorBy(d, ("POINTS", "damage"))
-        damage = GetColorTransferFunction("damage")
-        damage.ApplyPreset("Cool to Warm", True)
-        damage.RescaleTransferFunction(0.0, 1.0)
-        damage.AutomaticRescaleRangeMode = "Never"
-        d.SetScalarBarVisibility(view, True)
-        bar(damage, view, "sphere damage (broken / initial links)", [0.05, 0.04])
+        show_spheres(view, half(spheres, cut))
     if fe is not None:
-        d = Show(half(fe, cut), view)
-        ColorBy(d, ("POINTS", "displacement", "Magnitude"))
-        u = GetColorTransferFunction("displacement")
-        u.ApplyPreset("Viridis (matplotlib)", True)
-        top = value_range(fe, frames if job["animate"] else [t for _, t in pictures],
-                          "displacement")[1]
-        u.RescaleTransferFunction(0.0, max(top, 1e-30))
-        u.AutomaticRescaleRangeMode = "Never"
-        d.SetScalarBarVisibility(view, True)
-        bar(u, view, "FE displacement magnitude (m)", [0.60, 0.04])
+        show_fe(view, half(fe, cut), value_range(
+            fe, frames if job["animate"] else [t for _, t in pictures], "displacement")[1])
     label = AnnotateTime(Format=f"{run.name}   t = {{time:.4e}} s   cut at y = {cut[1]:.3f} m")
     d = Show(label, view)
     d.Color = BLACK
@@ -129,6 +108,36 @@ def main(job_file):
         movie = out / "animation.avi"
         SaveAnimation(str(movie), view, ImageResolution=SIZE, FrameRate=10)
         print(json.dumps({"file": str(movie), "times": frames}), flush=True)
+
+
+def show_spheres(view, source):
+    """Spheres as shaded spheres of their radius, coloured by damage 0-1."""
+    d = Show(source, view)
+    d.SetRepresentationType("Point Gaussian")
+    d.ShaderPreset = "Sphere"
+    d.ScaleByArray = 1
+    d.SetScaleArray = ["POINTS", "radius"]
+    d.UseScaleFunction = 0          # the radius itself, not mapped through a ramp
+    d.GaussianRadius = 1.0
+    ColorBy(d, ("POINTS", "damage"))
+    damage = GetColorTransferFunction("damage")
+    damage.ApplyPreset("Cool to Warm", True)
+    damage.RescaleTransferFunction(0.0, 1.0)
+    damage.AutomaticRescaleRangeMode = "Never"
+    d.SetScalarBarVisibility(view, True)
+    bar(damage, view, "sphere damage (broken / initial links)", [0.05, 0.04])
+
+
+def show_fe(view, source, top):
+    """The FE part coloured by displacement magnitude, 0 to `top` in every picture."""
+    d = Show(source, view)
+    ColorBy(d, ("POINTS", "displacement", "Magnitude"))
+    u = GetColorTransferFunction("displacement")
+    u.ApplyPreset("Viridis (matplotlib)", True)
+    u.RescaleTransferFunction(0.0, max(top, 1e-30))
+    u.AutomaticRescaleRangeMode = "Never"
+    d.SetScalarBarVisibility(view, True)
+    bar(u, view, "FE displacement magnitude (m)", [0.60, 0.04])
 
 
 def bounds(sources, t):
