@@ -1,5 +1,6 @@
 """The one writer of every file the project makes: JSON, CSV, TOML, text, npz, PNG, and the
-frames of the ParaView series. Each file is written under a temporary name in its folder and
+frames of the ParaView series; and the reader of text inputs (case files, scripts, tables),
+whose errors name the file and the position. Each file is written under a temporary name in its folder and
 renamed into place, so that no reader ever sees it half-written, with the mode a plain `open`
 would give it under the user's umask (0644 under umask 022), so that results in a shared
 folder or a Docker volume are readable by others.
@@ -34,6 +35,24 @@ def atomic(path):
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def read_text(path, what="file"):
+    """The UTF-8 text of an input file; ValueError naming the file, the byte, its position
+    (line, column) when it is not UTF-8, FileNotFoundError when it is missing."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{what} {path} is a folder, not a file")
+    if not path.is_file():
+        raise FileNotFoundError(f"{what} {path} not found")
+    data = path.read_bytes()
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        column = e.start - (data.rfind(b"\n", 0, e.start) + 1) + 1
+        raise ValueError(f"{what} {path} is not UTF-8 text: byte 0x{data[e.start]:02x} at "
+                         f"position {e.start} (line {line}, column {column})") from None
 
 
 def write_text(path, text):

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from time import perf_counter
 
-from common.files import write_text
+from common.files import read_text, write_text
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]*$")
 
@@ -51,8 +51,8 @@ def read_table(path):
     """[(name, {dotted key: raw text})] of a parameter table; rows are named by their `name`
     column, else run-001, run-002, ..."""
     path = Path(path)
-    with open(path, newline="") as f:
-        rows = list(csv.DictReader(f, skipinitialspace=True))
+    rows = list(csv.DictReader(io.StringIO(read_text(path, "parameter table"), newline=""),
+                               skipinitialspace=True))
     if not rows:
         raise ValueError(f"parameter table {path} has no rows")
     out = []
@@ -116,8 +116,9 @@ def run_batch(jobs, out, parallel=1, env=None):
             row["error"] = error_message(proc.stderr) or f"exit code {proc.returncode}"
         else:
             summary = out / job.name / "summary.json"
-            if summary.is_file():
-                row.update(key_results(json.loads(summary.read_text())))
+            if summary.is_file():     # its own `case` (the name) leaves the file's path
+                row.update({k: v for k, v in key_results(json.loads(summary.read_text())).items()
+                            if k not in row})
         return row
 
     with ThreadPoolExecutor(max_workers=int(parallel)) as pool:

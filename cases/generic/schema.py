@@ -8,7 +8,7 @@ import numpy as np
 from orchestrator.casefile import (CASE, FACES, OUTPUT, REQUIRED, UNSET, Key, at_least_one,
                                    axes, boolean, choice, components, divisions, integer,
                                    non_negative, number, poisson_range, positive, relaxation,
-                                   safety_range, string, strings, vector)
+                                   safety_range, step_count, string, strings, vector)
 from orchestrator.coupling.bridging import WEIGHTINGS
 
 MATERIAL = {
@@ -42,7 +42,8 @@ GENERIC = {
                  "rotations": Key(boolean, True),
                  "weighting": Key(choice(*WEIGHTINGS), "consistent")},
     "time": {"dt_safety": Key(number, 0.3, safety_range), "dt": Key(number, UNSET, positive),
-             "duration": Key(number, UNSET, positive), "steps": Key(integer, UNSET, at_least_one)},
+             "duration": Key(number, UNSET, positive),
+             "steps": Key(integer, UNSET, step_count)},
     "sensors": [SENSOR],
     "output": OUTPUT,
 }

@@ -15,7 +15,6 @@ def spec(case):
 
 def run(case, out, force=False, quiet=False, resume=False):
     from orchestrator.run.folder import start_folder
-    description = spec(case)
-    if not resume:
-        out = start_folder(case, out, force)
-    return run_model(description, case["slab"]["model"], out, quiet=quiet, resume=resume)
+    start = None if resume else (lambda: start_folder(case, out, force))
+    return run_model(spec(case), case["slab"]["model"], out, quiet=quiet, resume=resume,
+                     start=start)
