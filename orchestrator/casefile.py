@@ -205,6 +205,11 @@ def load(path, kinds, overrides=()):
     if not isinstance(raw.setdefault("case", {}), dict):
         raise CaseError(path, [f"case = {raw['case']!r}: expected a table ([case])"])
     raw["case"].setdefault("name", path.stem)
+    name = raw["case"]["name"]
+    if isinstance(name, str) and (name.strip() in ("", ".", "..") or "/" in name
+                                  or "\\" in name):
+        problems.append(f"case.name = {name!r}: must be a plain folder name (it names the "
+                        f"default results folder, results/<name>)")
     kind = raw["case"].get("kind", "generic")
     if kind not in kinds:
         raise CaseError(path, [f"case.kind = {kind!r}: expected one of {tuple(kinds)}"])

@@ -183,6 +183,30 @@ def test_a_case_file_that_is_not_utf8_is_named_with_the_byte_position(tmp_path, 
     assert not (tmp_path / "out").exists()
 
 
+def test_a_case_file_starting_with_a_utf8_byte_order_mark_reads(tmp_path):
+    case = small_case(tmp_path)
+    case.write_bytes(b"\xef\xbb\xbf" + case.read_bytes())
+    assert load(case)["coupling"]["layers"] == 1
+
+
+def test_a_case_name_that_is_not_a_folder_name_is_refused(tmp_path):
+    with pytest.raises(CaseError, match=re.escape(
+            "case.name = '../elsewhere': must be a plain folder name")):
+        load(small_case(tmp_path), ['case.name="../elsewhere"'])
+
+
+def test_a_packing_beyond_any_machine_is_refused_before_it_is_made(tmp_path):
+    """A radius typed 10 × too small: 1000 × the spheres (0.6 of the box's volume)."""
+    text = small_case(tmp_path).read_text().replace(
+        f'script = "{tmp_path / "s.py"}"\nscript_args = []',
+        "[[de.packing]]\nlo = [0.1, 0.1, 0.0]\nhi = [0.5, 0.5, 0.1]\nradius = 0.0002")
+    case = tmp_path / "p.toml"
+    case.write_text(text)
+    with pytest.raises(CaseError, match=re.escape(
+            "de.packing[0].radius = 0.0002: about 2.9e+08 spheres in this box, more than 1e+07")):
+        load(case)
+
+
 @pytest.mark.parametrize("content, message", [
     (b"", " is empty"),
     (b"no mesh here\n", ": meshio cannot read it as a mesh (Error: Couldn't read file"),
@@ -313,6 +337,11 @@ def test_a_corrupt_checkpoint_file_is_named(stopped, capsys, name):
     code = main(["run", "--resume", str(stopped), "--quiet"])
     assert f"{path}: unreadable checkpoint file" in one_line_error(capsys, code)
     assert not (stopped / "summary.json").exists()
+
+
+def test_a_checkpoint_is_resumed_by_the_command_that_wrote_it(stopped, capsys):
+    code = main(["slab", "--resume", str(stopped)])
+    assert "not of a slab run: resume it with `run --resume`" in one_line_error(capsys, code)
 
 
 def test_a_finished_run_is_not_resumed(stopped, capsys):

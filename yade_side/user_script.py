@@ -212,15 +212,16 @@ class _PyRunnerGuard:
                                 f"{one_line(str(e))}{where}")
 
 
-_guards = []
+_guards = []      # weak: the script's namespace holds its guard, nothing else should
 
 
 def _guard_pyrunners(namespace):
     """Route the script's PyRunner commands through a _PyRunnerGuard."""
+    import weakref
     yade = import_yade()
     guard = _PyRunnerGuard(namespace)
     namespace["_pyrunner_guard"] = guard
-    _guards[:] = [guard]
+    _guards[:] = [weakref.ref(guard)]
     for e in yade.Omega().engines:
         if isinstance(e, yade.wrapper.PyRunner) and not e.command.startswith("_pyrunner_guard("):
             e.command = f"_pyrunner_guard({e.command!r})"
@@ -228,9 +229,10 @@ def _guard_pyrunners(namespace):
 
 def pyrunner_failure():
     """The error of a script's PyRunner since the last call (one line), or None."""
-    for guard in _guards:
-        failure, guard.failure = guard.failure, None
-        if failure:
+    for ref in _guards:
+        guard = ref()
+        if guard is not None and guard.failure:
+            failure, guard.failure = guard.failure, None
             return failure
     return None
 

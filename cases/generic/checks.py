@@ -111,14 +111,14 @@ def fe_snap_bound(element_size, nodes, cell_nodes):
     return max(float(element_size), float(half))
 
 
-def snapped(k, sensor, what, distance, bound, problems, notes):
-    """A point sensor on `what` at `distance` from its point: noted, refused beyond `bound`
-    (value, what it is)."""
+def snapped(k, sensor, kind, on, distance, bound, problems, notes):
+    """A point sensor on the `kind` (sphere, FE node) described by `on`, at `distance` from
+    its point: noted, refused beyond `bound` (value, what it is)."""
     p = ", ".join(f"{x:g}" for x in sensor["point"])
-    line = (f"sensors[{k}] ({sensor['name']!r}) at ({p}): on {what}, {distance:.3g} m from "
-            f"the point")
+    line = (f"sensors[{k}] ({sensor['name']!r}) at ({p}): on {kind} {on}, {distance:.3g} m "
+            f"from the point")
     if distance > bound[0]:
-        problems.append(f"{line}, farther than {bound[0]:.3g} m ({bound[1]}): the point is "
-                        f"outside the model")
+        problems.append(f"{line}, farther than {bound[0]:.3g} m ({bound[1]}): no {kind} lies "
+                        f"near this point (outside the model, or in the other model's part)")
     else:
         notes.append(line)

@@ -101,14 +101,14 @@ class CaseModel(Model):
             if on == "de":
                 j = int(np.argmin(np.linalg.norm(pos - p, axis=1)))
                 sphere_rows.append((k, j))
-                checks.snapped(k, s, f"sphere {self.spheres.ids[j]}{where}",
+                checks.snapped(k, s, "sphere", f"{self.spheres.ids[j]}{where}",
                                float(np.linalg.norm(pos[j] - p)), (size, "the element size"),
                                problems, self.notes)
             else:
                 n = int(np.argmin(np.linalg.norm(self.fe.nodes - p, axis=1)))
                 node_rows.append((k, n))
-                checks.snapped(k, s, f"FE node {n}", float(np.linalg.norm(self.fe.nodes[n] - p)),
-                               (fe_bound, "the element size or half the largest cell diagonal"),
+                checks.snapped(k, s, "FE node", str(n),
+                               float(np.linalg.norm(self.fe.nodes[n] - p)), (fe_bound, "the element size or half the largest cell diagonal"),
                                problems, self.notes)
         spheres, nodes = [j for _, j in sphere_rows], [n for _, n in node_rows]
         self.set_sensors([sensors[k]["name"] for k, _ in sphere_rows + node_rows], spheres, nodes,

@@ -52,7 +52,7 @@ def run(args):
         raise ValueError(f"--tol must be in (0, 1), got {args.tol!r}")
     if args.max_iter < 1:
         raise ValueError(f"--max-iter must be >= 1, got {args.max_iter!r}")
-    radius = args.radius if args.radius is not None else SCALES[args.scale]
+    radius = args.radius if args.radius is not None else SCALES[args.scale].radius
     size = cal.check_specimen(radius, args.size)
     target = cal.Target(young=args.young, compressive_strength=args.fc, poisson=args.poisson,
                         density=args.density)

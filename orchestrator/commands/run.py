@@ -26,7 +26,10 @@ def run(args):
                              "give no case file, --set, --out or --force with it")
         from orchestrator.run.restart import check_inputs, resume_meta
         out = Path(args.resume)
-        resume_meta(out)                      # a clear error if there is no checkpoint
+        info = resume_meta(out)["info"]       # a clear error if there is no checkpoint
+        if not (out / "case.toml").is_file() and "spec" in info:
+            raise ValueError(f"{out} holds a checkpoint of the slab command (no case.toml): "
+                             f"resume it with `slab --resume`")
         case = load(out / "case.toml")
         check_inputs(out, case_inputs(case))  # the same case, before anything is built
         resume_folder(out)

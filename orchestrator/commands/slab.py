@@ -36,6 +36,9 @@ def run(args):
                              f"checkpoint: give no {', '.join(given)} with it")
         from orchestrator.run.restart import resume_meta
         info = resume_meta(args.resume)["info"]
+        if "spec" not in info or "model" not in info:
+            raise ValueError(f"{args.resume} holds a checkpoint of case {info.get('case')!r}, "
+                             f"not of a slab run: resume it with `run --resume`")
         spec, model = slab.SlabSpec(**info["spec"]), info["model"]
     elif args.out and args.model:
         spec, model = spec_from_args(slab.SlabSpec, args), args.model
