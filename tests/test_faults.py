@@ -522,3 +522,11 @@ def test_the_shipped_block_case_stays_stable_through_its_impact(tmp_path):
     assert s["weighting"] == "consistent" and s["damage"]["broken_links"] > 0
     assert energy.max() <= 1.01 * s["reference_energy_J"]
     assert energy[-1] < s["reference_energy_J"]
+
+
+def test_a_slab_case_file_names_its_model(tmp_path):
+    """As `slab --model`: no default, full or coupled is the user's choice."""
+    case = tmp_path / "slab.toml"
+    case.write_text((ROOT / "cases" / "slab.toml").read_text().replace('model = "coupled"', ""))
+    with pytest.raises(CaseError, match=re.escape("slab.model: missing (required)")):
+        load(case)

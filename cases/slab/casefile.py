@@ -2,10 +2,11 @@
 SlabSpec's metadata), plus slab.model."""
 from cases.slab.model import MODELS, run as run_model
 from cases.slab.spec import SlabSpec
-from orchestrator.casefile import CASE, Key, choice, spec_from_case, spec_schema
+from orchestrator.casefile import CASE, REQUIRED, Key, choice, spec_from_case, spec_schema
 
 SCHEMA = {"case": CASE, **spec_schema(SlabSpec)}
-SCHEMA["slab"] = {"model": Key(choice(*MODELS), "coupled"), **SCHEMA["slab"]}
+# no default model, as for the `slab` command: full or coupled is the user's choice
+SCHEMA["slab"] = {"model": Key(choice(*MODELS), REQUIRED), **SCHEMA["slab"]}
 
 
 def spec(case):
