@@ -10,6 +10,15 @@ KINDS = {"generic": Kind(generic.SCHEMA, generic.check),
 RUNNERS = {"generic": generic.run, "slab": slab_case.run, "wave1d": wave1d_case.run}
 
 
+def case_inputs(case):
+    """What a case's results depend on (orchestrator.run.inputs): a resumed run compares it
+    with its checkpoint's."""
+    from orchestrator.run import inputs
+    if case.kind == "slab":
+        return inputs.spec_inputs(slab_case.spec(case), case["slab"]["model"])
+    return inputs.case_inputs(case)
+
+
 def load_case(path, overrides=()):
     """A checked case file of any kind (orchestrator.casefile.load)."""
     return load(path, KINDS, overrides)

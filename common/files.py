@@ -1,8 +1,9 @@
 """The one writer of every file the project makes: JSON, CSV, TOML, text, npz, PNG, and the
-frames of the ParaView series. Each file is written under a temporary name in its folder and
-renamed into place, so that no reader ever sees it half-written, with the mode a plain `open`
-would give it under the user's umask (0644 under umask 022), so that results in a shared
-folder or a Docker volume are readable by others.
+frames of the ParaView series; and the reader of text inputs (case files, scripts, tables),
+whose errors name the file and the position. Each file is written under a temporary name in
+its folder and renamed into place, so that no reader ever sees it half-written, with the
+mode a plain `open` would give it under the user's umask (0644 under umask 022), so that
+results in a shared folder or a Docker volume are readable by others.
 """
 import json
 import os
@@ -34,6 +35,26 @@ def atomic(path):
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def read_text(path, what="file"):
+    """The UTF-8 text of an input file; ValueError naming the file, the byte, its position
+    (line, column) when it is not UTF-8, FileNotFoundError when it is missing."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{what} {path} is a folder, not a file")
+    if not path.is_file():
+        raise FileNotFoundError(f"{what} {path} not found")
+    data = path.read_bytes()
+    bom = b"\xef\xbb\xbf"                # some editors start UTF-8 files with it
+    try:
+        return data[len(bom):].decode("utf-8") if data.startswith(bom) else data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        at = e.start + (len(bom) if data.startswith(bom) else 0)
+        line = data.count(b"\n", 0, at) + 1
+        column = at - (data.rfind(b"\n", 0, at) + 1) + 1
+        raise ValueError(f"{what} {path} is not UTF-8 text: byte 0x{data[at]:02x} at "
+                         f"position {at} (line {line}, column {column})") from None
 
 
 def write_text(path, text):

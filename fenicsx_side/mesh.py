@@ -59,9 +59,7 @@ def read_msh(path, comm=MPI.COMM_WORLD):
     Lower-dimensional cells (surfaces, lines, points) are ignored; so are nodes that no 3D cell
     uses. The mesh is built on rank 0 and distributed by dolfinx.
     """
-    import meshio
-
-    data = meshio.read(path)
+    data = _read_meshio(path)
     kinds = {block.type for block in data.cells if block.dim == 3}
     accepted = kinds & set(_MESHIO_CELLS)
     if len(accepted) != 1 or kinds - accepted:
@@ -81,6 +79,25 @@ def read_msh(path, comm=MPI.COMM_WORLD):
         cells, points = np.empty((0, cells.shape[1]), np.int64), np.empty((0, 3))
     domain = ufl.Mesh(ufl.VectorElement("Lagrange", _MESHIO_CELLS[kind], 1))
     return mesh.create_mesh(comm, cells, points, domain)
+
+
+def _read_meshio(path):
+    """meshio's mesh of a file; ValueError naming the file when it is empty or unreadable
+    (meshio itself fails with "need at least one array to concatenate" or exits)."""
+    import contextlib
+    import io
+    import os
+    import meshio
+    if os.path.getsize(path) == 0:
+        raise ValueError(f"mesh file {path} is empty")
+    said = io.StringIO()               # meshio prints why it gives up, then exits
+    try:
+        with contextlib.redirect_stdout(said), contextlib.redirect_stderr(said):
+            return meshio.read(path)
+    except (Exception, SystemExit) as e:
+        why = " ".join(said.getvalue().split()) if isinstance(e, SystemExit) else \
+            f"{type(e).__name__}: {e}"
+        raise ValueError(f"mesh file {path}: meshio cannot read it as a mesh ({why})") from None
 
 
 def _box_arguments(p0, p1, n):

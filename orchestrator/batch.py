@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from time import perf_counter
 
-from common.files import write_text
+from common.files import read_text, write_text
 
 # run folders; also yade-batch's built descriptions (`a=1,!OMP_NUM_THREADS=2`)
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._=,+!-]*$")
@@ -93,10 +93,7 @@ def read_table(path):
     a yade-batch table with script columns the text of its copy for readParamsFromTable
     (else None). CSV rows are named by their `name` column, else run-001, run-002, ..."""
     path = Path(path)
-    try:
-        text = path.read_text()
-    except UnicodeDecodeError:
-        raise ValueError(f"parameter table {path} is not a text file") from None
+    text = read_text(path, "parameter table")
     # the header: the first line with more than a `#` comment (yade-batch's comments)
     header = next((line for line in text.splitlines() if re.sub(r"#.*", "", line).strip()), "")
     if "," in re.sub(r"#.*", "", header):
@@ -273,7 +270,9 @@ def run_job(job, out, env=None):
     else:
         summary = out / job.name / "summary.json"
         if summary.is_file():
-            row.update(key_results(json.loads(summary.read_text())))
+            # its own `case` (the name) leaves the file's path in every row
+            row.update({k: v for k, v in key_results(json.loads(summary.read_text())).items()
+                        if k not in row})
     return row
 
 

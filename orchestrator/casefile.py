@@ -98,6 +98,13 @@ def at_least_one(v):
     return None if v >= 1 else ">= 1"
 
 
+MAX_STEPS = 10**9      # beyond, a run takes weeks (at >= 1 ms per step): a mistake
+
+
+def step_count(v):
+    return None if 1 <= v <= MAX_STEPS else f"in [1, {MAX_STEPS:.0e}] (steps of a run)"
+
+
 def poisson_range(v):
     return None if -1 < v < 0.5 else "in (-1, 0.5)"
 
@@ -185,11 +192,11 @@ class Case:
 def load(path, kinds, overrides=()):
     """Read and check a case file against its kind among `kinds` ({name: Kind}, see
     cases.kinds); `overrides` are "dotted.key=TOML value" strings (--set)."""
+    from common.files import read_text
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"case file {path} not found")
+    text = read_text(path, "case file")
     try:
-        raw = tomllib.loads(path.read_text())
+        raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"case file {path} is not valid TOML: {e}") from None
     problems = []
@@ -198,6 +205,11 @@ def load(path, kinds, overrides=()):
     if not isinstance(raw.setdefault("case", {}), dict):
         raise CaseError(path, [f"case = {raw['case']!r}: expected a table ([case])"])
     raw["case"].setdefault("name", path.stem)
+    name = raw["case"]["name"]
+    if isinstance(name, str) and (name.strip() in ("", ".", "..") or "/" in name
+                                  or "\\" in name):
+        problems.append(f"case.name = {name!r}: must be a plain folder name (it names the "
+                        f"default results folder, results/<name>)")
     kind = raw["case"].get("kind", "generic")
     if kind not in kinds:
         raise CaseError(path, [f"case.kind = {kind!r}: expected one of {tuple(kinds)}"])

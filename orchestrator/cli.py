@@ -18,8 +18,15 @@ def _command_modules():
             yield importlib.import_module(f"{commands.__name__}.{info.name}")
 
 
+class Parser(argparse.ArgumentParser):
+    """Command-line mistakes in one line, like every other bad input (exit code 2)."""
+
+    def error(self, message):
+        self.exit(2, f"error: {self.prog}: {message} (see --help)\n")
+
+
 def build_parser():
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="python3 -m orchestrator",
         description="Coupled YADE (DE) / FEniCSx (FE) solver for impacts on concrete.")
     sub = parser.add_subparsers(dest="command", metavar="SUBCOMMAND", required=True)
@@ -30,22 +37,37 @@ def build_parser():
     return parser
 
 
-# exit code of a run stopped by SIGTERM after writing its checkpoint (128 + SIGTERM)
+# exit code of a run stopped by SIGTERM after writing its checkpoint (128 + SIGTERM); SIGINT
+# (Ctrl-C) gives 130
 STOPPED = 143
+INTERRUPTED = 130
 
 
 def main(argv=None):
+    from orchestrator.run import folder
     from orchestrator.run.guard import BlowUp
+    from orchestrator.run.loop import StepFailed
     from orchestrator.run.restart import Stopped
-    from orchestrator.run.folder import ResultsExist
     from yade_side.checkpoint import CheckpointError
     args = build_parser().parse_args(argv)
+    folder.forget()
     try:
-        return args.func(args) or 0
+        code = args.func(args) or 0
     except Stopped as e:
+        folder.forget()            # the folder holds a checkpoint: --resume carries on
         print(f"stopped: {e}", file=sys.stderr)
-        return STOPPED
-    except (ValueError, ResultsExist, BlowUp, FileNotFoundError, CheckpointError) as e:
+        return e.code
+    except KeyboardInterrupt:      # Ctrl-C outside the time loop (which checkpoints instead)
+        folder.settle_failure("interrupted (Ctrl-C) before the run could checkpoint")
+        print("interrupted", file=sys.stderr)
+        return INTERRUPTED
+    except (ValueError, folder.ResultsExist, BlowUp, StepFailed, OSError, CheckpointError) as e:
         # bad input or a run that went wrong: one clear line, no traceback
+        folder.settle_failure(f"error: {e}")
         print(f"error: {e}", file=sys.stderr)
         return 2
+    except Exception as e:         # a defect: the traceback is for us, the folder is marked
+        folder.settle_failure(f"internal error: {type(e).__name__}: {e}")
+        raise
+    folder.forget()
+    return code

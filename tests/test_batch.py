@@ -92,6 +92,8 @@ def test_a_batch_runs_a_parameter_table_and_lists_its_failure(tmp_path):
     with open(out / "batch_summary.csv") as f:
         rows = {r["name"]: r for r in csv.DictReader(f)}
     assert [rows[n]["status"] for n in ("r5", "r20", "bad")] == ["ok", "ok", "failed"]
+    # the case file, whether the run succeeded or not
+    assert {r["case"] for r in rows.values()} == {str(ROOT / "cases" / "block_impact.toml")}
     for name in ("r5", "r20"):
         assert (out / name / "summary.json").is_file() and (out / name / "spheres.pvd").is_file()
         assert int(rows[name]["steps"]) >= 1 and float(rows[name]["relaxation"]) == float(

@@ -13,6 +13,7 @@ A restarted run then continues identically until the collider, which rebuilds it
 load, lets a new contact into the interaction container at another place: forces on a sphere
 are then summed in another order, a round-off difference (measured in tests/test_checkpoint.py).
 """
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -56,8 +57,12 @@ def load_scene(folder):
     for name in ("scene.yade.gz", "cpm_history.npz"):
         if not (folder / name).is_file():
             raise CheckpointError(f"checkpoint {folder} has no {name}")
-    with np.load(folder / "cpm_history.npz") as data:
-        pairs, history, offset = data["pairs"], data["history"], int(data["offset"])
+    try:
+        with np.load(folder / "cpm_history.npz") as data:
+            pairs, history, offset = data["pairs"], data["history"], int(data["offset"])
+    except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile) as e:
+        raise CheckpointError(f"{folder / 'cpm_history.npz'}: unreadable checkpoint file "
+                              f"({e})") from None
     try:
         O.load(str(folder / "scene.yade.gz"))
     except RuntimeError as e:

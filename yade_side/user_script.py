@@ -36,6 +36,11 @@ class ScriptRefused(ValueError):
     """The script's scene is one the orchestrator cannot couple; the message says why."""
 
 
+class ScriptError(ValueError):
+    """The script cannot be read or run, or stopped with an error; the message names the
+    script and the line."""
+
+
 @dataclass
 class ScriptScene:
     path: Path
@@ -61,12 +66,23 @@ def run_script(path, args=()):
     exec(LAUNCHER_NAMESPACE, namespace)
     scene = ScriptScene(path, namespace)
     namespace["waitIfBatch"] = lambda: None
-    code = compile(path.read_text(), str(path), "exec")
+    namespace["exit"] = namespace["quit"] = _exit    # site's would close stdin too
+    from common.files import read_text
+    try:
+        code = compile(read_text(path, "YADE script"), str(path), "exec")
+    except SyntaxError as e:
+        raise ScriptError(f"YADE script {path}, line {e.lineno}: syntax error: {e.msg}") from None
     # YADE runs PyRunner commands in __main__: the script's module is __main__ from now on,
     # as under YADE's launcher (the orchestrator's own __main__ keeps running unaffected)
     sys.modules["__main__"] = module
     with _neutralised(yade, scene), _argv([str(path), *args]):
-        exec(code, namespace)
+        try:
+            exec(code, namespace)
+        except SystemExit as e:
+            _exited(scene, e)
+        except Exception as e:
+            raise ScriptError(f"YADE script {path}, line {_line(e, path)}: "
+                              f"{type(e).__name__}: {one_line(str(e))}") from None
     if O.dt != default_dt:
         scene.dt_from_script = O.dt
     return scene
@@ -77,6 +93,52 @@ def current_scene():
     whose sys.argv[0] is the script): a ScriptScene for it, with the script's O.dt."""
     import __main__
     return ScriptScene(Path(sys.argv[0]), vars(__main__), dt_from_script=import_yade().Omega().dt)
+
+
+def _exit(code=None):
+    raise SystemExit(code)
+
+
+def _exited(scene, e):
+    """exit(), quit() or sys.exit(0) end the script's set-up where they are, as they end
+    `yade script.py` (its last line, in most scripts); the orchestrator then runs the time
+    loop. Any other code is the script reporting a failure: an error."""
+    where = f"YADE script {scene.path}, line {_line(e, scene.path)}"
+    if e.code not in (None, 0):
+        raise ScriptError(f"{where}: the script stopped with exit code {e.code!r}") from None
+    _warn(scene, f"{where}: exit() ends the script's set-up there; the orchestrator runs "
+                 f"the time loop")
+
+
+def _line(error, path):
+    """The line of `path` where `error` was raised (its last frame in that file)."""
+    import traceback
+    lines = [f.lineno for f in traceback.extract_tb(error.__traceback__)
+             if f.filename == str(path)]
+    return lines[-1] if lines else "?"
+
+
+def one_line(text):
+    """A message on one line: YADE's PyRunner errors span many (command, error, trace)."""
+    return " ".join(text.split())
+
+
+def step_error(error):
+    """One line for an exception out of O.step(): YADE wraps a PyRunner's error as
+    "PyRunner error. COMMAND: ... ERROR: ... STACK TRACE: ..."; say which command raised what,
+    and the last script line of the trace."""
+    text = str(error)
+    if "PyRunner error." not in text:
+        return f"{type(error).__name__}: {one_line(text)}"
+    import re
+    command = re.search(r"COMMAND:\s*'(.*?)'", text)
+    head, _, trace = text.partition("STACK TRACE:")
+    message = re.search(r"ERROR:\s*(.*)", head, re.S)
+    lines = [line.strip() for line in trace.splitlines() if line.strip()]
+    raised = lines[-1] if lines else one_line(message.group(1) if message else head)
+    frames = re.findall(r'File "([^"<]+)", line (\d+)', trace)
+    where = f" ({frames[-1][0]}, line {frames[-1][1]})" if frames else ""
+    return f"the PyRunner {command.group(1) if command else '?'!r} raised {raised}{where}"
 
 
 @contextmanager
@@ -133,7 +195,53 @@ def prepare_dynamics(scene):
     if any(newton.gravity):
         _warn(scene, f"{scene.path.name}: gravity {tuple(newton.gravity)} acts on the spheres "
                      f"only; the FE model has no body force")
+    _guard_pyrunners(scene.namespace)
     return newton
+
+
+class _PyRunnerGuard:
+    """Runs a script's PyRunner command as YADE would (in the script's namespace) and keeps
+    its first error for `pyrunner_failure`, instead of letting YADE print a traceback."""
+
+    def __init__(self, namespace):
+        self.namespace, self.failure = namespace, None
+
+    def __call__(self, command):
+        try:
+            exec(command, self.namespace)
+        except Exception as e:
+            if self.failure is None:
+                import traceback
+                frames = [f for f in traceback.extract_tb(e.__traceback__)
+                          if f.filename != __file__]
+                where = f" ({frames[-1].filename}, line {frames[-1].lineno})" if frames else ""
+                self.failure = (f"the PyRunner {command!r} raised {type(e).__name__}: "
+                                f"{one_line(str(e))}{where}")
+
+
+_guards = []      # weak: the script's namespace holds its guard, nothing else should
+
+
+def _guard_pyrunners(namespace):
+    """Route the script's PyRunner commands through a _PyRunnerGuard."""
+    import weakref
+    yade = import_yade()
+    guard = _PyRunnerGuard(namespace)
+    namespace["_pyrunner_guard"] = guard
+    _guards[:] = [weakref.ref(guard)]
+    for e in yade.Omega().engines:
+        if isinstance(e, yade.wrapper.PyRunner) and not e.command.startswith("_pyrunner_guard("):
+            e.command = f"_pyrunner_guard({e.command!r})"
+
+
+def pyrunner_failure():
+    """The error of a script's PyRunner since the last call (one line), or None."""
+    for ref in _guards:
+        guard = ref()
+        if guard is not None and guard.failure:
+            failure, guard.failure = guard.failure, None
+            return failure
+    return None
 
 
 def body_table():

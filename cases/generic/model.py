@@ -4,10 +4,9 @@ DE zone through the structure along the axes not in `zone_axes`, with `layers` b
 layers; built by orchestrator.builder, which checks what needs both models before the first
 step (spheres in the band, each in an FE cell, the time step). Every problem found goes into
 one CaseError."""
-import math
-
 import numpy as np
 
+from cases.generic import checks
 from cases.generic.scenes import PackingScene, UserScriptScene
 from orchestrator.builder import BuildError, CouplingSpec, Description, Model, assemble
 from orchestrator.casefile import AXIS, CaseError
@@ -17,6 +16,7 @@ from orchestrator.coupling.bridging import BoxZone, Bridging
 class CaseModel(Model):
     def __init__(self, case):
         self.case = case
+        self.warnings = []           # set-up warnings: printed, and in the notes
         d = case.data
         cp, time = d["coupling"], d["time"]
         self.bridging = Bridging(BoxZone(cp["zone_lo"], cp["zone_hi"], cp["zone_axes"]),
@@ -34,13 +34,13 @@ class CaseModel(Model):
             raise CaseError(case.path, e.problems) from None
         self.notes = scene.notes + self.notes
         self.reference_energy = scene.reference_energy
-        self.run_steps = (time["steps"] if "steps" in time
-                          else max(1, math.ceil(time["duration"] / self.dt))
-                          if "duration" in time else None)    # None: YADE's loop decides
         problems = []
+        checks.band_filled(self.bridging, self.spheres.ref_pos, self.spheres.radius, problems)
+        self.run_steps = checks.steps(time, self.dt, problems, self.notes)
         self._sensors(d["sensors"], problems)
         if problems:
             raise CaseError(case.path, problems)
+        self.notes += [f"warning: {w}" for w in self.warnings]
 
     def _fe_model(self, weight):
         """The FE partner: its mesh must hold the DE zone and leave it out."""
@@ -56,21 +56,32 @@ class CaseModel(Model):
                     for a in zone.axes if not lo[a] <= z[a] <= hi[a]]
         if problems:
             raise CaseError(self.case.path, problems)
-        try:
-            model = ElasticModel(msh, mat["young"], mat["poisson"], mat["density"],
-                                 _supports(fe["dirichlet"], lo, hi), weight=weight)
-        except ValueError as e:
-            raise CaseError(self.case.path, [f"fe: {e}"]) from None
-        inside = np.count_nonzero(zone.depth(model.nodes[model.cell_nodes].mean(axis=1)) < 0)
+        n_cells = msh.topology.index_map(msh.topology.dim).size_local
+        cells = msh.geometry.dofmap.array.reshape(n_cells, -1)    # P1 geometry: the vertices
+        inside = np.count_nonzero(zone.depth(x[cells].mean(axis=1)) < 0)
         if inside:
             raise CaseError(self.case.path, [
                 f"fe.mesh: {inside} elements lie inside the DE zone; the FE mesh must leave the "
                 f"DE zone out (only the bridging layers overlap the spheres)"])
-        return model
+        # the band's width is layers × element_size: that size first, then the band's room
+        checks.element_size(self.bridging.width / self.bridging.layers,
+                            checks.measured_element_size(self.bridging, x, cells),
+                            problems, self.warnings)
+        if not problems:
+            checks.band_in_mesh(self.bridging, lo, hi, self.case["coupling"]["layers"], problems)
+        if problems:
+            raise CaseError(self.case.path, problems)
+        try:
+            return ElasticModel(msh, mat["young"], mat["poisson"], mat["density"],
+                                _supports(fe["dirichlet"], lo, hi), weight=weight)
+        except ValueError as e:
+            raise CaseError(self.case.path, [f"fe: {e}"]) from None
 
     def _sensors(self, sensors, problems):
         """Each sensor on the sphere or FE node nearest its point (or on a sphere by id)."""
         pos = self.spheres.ref_pos
+        size = self.bridging.width / self.bridging.layers
+        fe_bound = checks.fe_snap_bound(size, self.fe.nodes, self.fe.cell_nodes)
         sphere_rows, node_rows = [], []           # (sensor index, sphere index / FE node)
         index = {int(i): j for j, i in enumerate(self.spheres.ids)}
         for k, s in enumerate(sensors):
@@ -83,12 +94,23 @@ class CaseModel(Model):
                 continue
             p = np.array(s["point"])
             on = s["on"]
+            where = ""
             if on == "auto":
                 on = "de" if self.bridging.covers(p)[0] else "fe"
+                if self.bridging.contains(p)[0]:
+                    where = " (on = 'auto' in the bridging domain; on = 'fe' for the FE node)"
             if on == "de":
-                sphere_rows.append((k, int(np.argmin(np.linalg.norm(pos - p, axis=1)))))
+                j = int(np.argmin(np.linalg.norm(pos - p, axis=1)))
+                sphere_rows.append((k, j))
+                checks.snapped(k, s, "sphere", f"{self.spheres.ids[j]}{where}",
+                               float(np.linalg.norm(pos[j] - p)), (size, "the element size"),
+                               problems, self.notes)
             else:
-                node_rows.append((k, int(np.argmin(np.linalg.norm(self.fe.nodes - p, axis=1)))))
+                n = int(np.argmin(np.linalg.norm(self.fe.nodes - p, axis=1)))
+                node_rows.append((k, n))
+                checks.snapped(k, s, "FE node", str(n),
+                               float(np.linalg.norm(self.fe.nodes[n] - p)), (fe_bound, "the element size or half the largest cell diagonal"),
+                               problems, self.notes)
         spheres, nodes = [j for _, j in sphere_rows], [n for _, n in node_rows]
         self.set_sensors([sensors[k]["name"] for k, _ in sphere_rows + node_rows], spheres, nodes,
                          np.vstack([pos[spheres], self.fe.nodes[nodes]]))
@@ -118,13 +140,17 @@ def _supports(dirichlet, lo, hi):
 def run(case, out, force=False, quiet=False, resume=False):
     """Build and run a checked generic case into the results folder `out`; returns the
     summary. The model is built, and every problem reported, before the folder is made."""
+    import sys
     from time import perf_counter
     from orchestrator.run.checks import post_run_checks
     from orchestrator.run.folder import start_folder
+    from orchestrator.run.inputs import case_inputs
     from orchestrator.run.loop import Schedule, run as run_loop
     t0 = perf_counter()
     model = CaseModel(case)            # raises CaseError before anything runs
     build_s = perf_counter() - t0
+    for w in model.warnings:
+        print(f"WARNING: {w}", file=sys.stderr)
     if not resume:
         out = start_folder(case, out, force)
     d, mat, o = case.data, case["material"], case["output"]
@@ -137,4 +163,5 @@ def run(case, out, force=False, quiet=False, resume=False):
     checks = lambda damage: post_run_checks(model.fe, damage[model.bridge_index],
                                             mat["tensile_strength"], mat["compressive_strength"])
     return run_loop(model, schedule, out, d["case"]["name"], model.reference_energy,
-                    info=info, checks=checks, quiet=quiet, notes=model.notes, resume=resume)
+                    info=info, checks=checks, quiet=quiet, notes=model.notes, resume=resume,
+                    inputs=case_inputs(case))

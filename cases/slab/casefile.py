@@ -2,10 +2,11 @@
 SlabSpec's metadata), plus slab.model."""
 from cases.slab.model import MODELS, run as run_model
 from cases.slab.spec import SlabSpec
-from orchestrator.casefile import CASE, Key, choice, spec_from_case, spec_schema
+from orchestrator.casefile import CASE, REQUIRED, Key, choice, spec_from_case, spec_schema
 
 SCHEMA = {"case": CASE, **spec_schema(SlabSpec)}
-SCHEMA["slab"] = {"model": Key(choice(*MODELS), "coupled"), **SCHEMA["slab"]}
+# no default model, as for the `slab` command: full or coupled is the user's choice
+SCHEMA["slab"] = {"model": Key(choice(*MODELS), REQUIRED), **SCHEMA["slab"]}
 
 
 def spec(case):
@@ -15,7 +16,6 @@ def spec(case):
 
 def run(case, out, force=False, quiet=False, resume=False):
     from orchestrator.run.folder import start_folder
-    description = spec(case)
-    if not resume:
-        out = start_folder(case, out, force)
-    return run_model(description, case["slab"]["model"], out, quiet=quiet, resume=resume)
+    start = None if resume else (lambda: start_folder(case, out, force))
+    return run_model(spec(case), case["slab"]["model"], out, quiet=quiet, resume=resume,
+                     start=start)

@@ -26,9 +26,16 @@ class Run:
         summary = self.folder / "summary.json"
         if not summary.is_file():
             raise FileNotFoundError(f"{self.folder} is not a slab results folder (no summary.json)")
-        self.summary = json.loads(summary.read_text())
+        try:
+            self.summary = json.loads(summary.read_text())
+        except (OSError, ValueError) as e:
+            raise ValueError(f"{summary}: unreadable ({e})") from None
         if "spec" not in self.summary or "model" not in self.summary:
-            raise ValueError(f"{self.folder} is not a slab run (its summary.json has no slab spec)")
+            raise ValueError(f"{self.folder} holds a run of case {self.summary.get('case')!r}, "
+                             f"not a slab run: compare takes full and coupled slab runs")
+        for name in ("sensors.csv", "damage.npz"):
+            if not (self.folder / name).is_file():
+                raise FileNotFoundError(f"{self.folder} has no {name}: not a finished slab run")
         self.model, self.spec = self.summary["model"], self.summary["spec"]
         self.seed = self.spec.get("seed", 1)
         self.t, self.names, self.h = read_sensors(self.folder / "sensors.csv")

@@ -148,13 +148,18 @@ class SlabModel(Model):
         return np.array([round(x[0] / h) * h, round(x[1] / h) * h, round(x[2] / hz) * hz])
 
 
-def run(spec, model, out, quiet=False, resume=False):
-    """Run one model to spec.steps and write its results folder `out` (already prepared), or
-    carry on from its checkpoint (resume)."""
+def run(spec, model, out, quiet=False, resume=False, start=None, inputs=None):
+    """Run one model to spec.steps and write its results folder `out`, or carry on from its
+    checkpoint (resume). `start()`, if given, makes the folder once the model is built (and
+    returns it); `inputs`: what the results depend on (orchestrator.run.inputs), a resumed
+    run must have the same."""
+    from orchestrator.run.inputs import spec_inputs
     from orchestrator.run.loop import Schedule, run as run_loop
     t_build = perf_counter()
     m = SlabModel(spec, model)
     build_s = perf_counter() - t_build
+    if start is not None:
+        out = start()
     impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
     info = {"model": model, "seed": spec.seed, "spec": asdict(spec),
             "n_slab_spheres": len(m.slab_ids),
@@ -165,7 +170,7 @@ def run(spec, model, out, quiet=False, resume=False):
     return run_loop(m, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
                     info=info, arrays={"slab_index": m.slab_index},
                     checks=lambda damage: _post_run_checks(m, damage), quiet=quiet,
-                    resume=resume)
+                    resume=resume, inputs=spec_inputs(spec, model) if inputs is None else inputs)
 
 
 def _post_run_checks(m, damage):

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 from orchestrator.casefile import (boolean, check_spec, choice, integer, non_negative, number,
                                    poisson_range, positive, relaxation as relaxation_kind,
-                                   safety_range, spec_key as key)
+                                   safety_range, spec_key as key, step_count)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
 
@@ -84,7 +84,8 @@ class SlabSpec:
     dt_safety: float = key(0.15, number, safety_range, section="time",
                            help="× the smaller critical step (at 0.3 the slab gains energy "
                                 "and disintegrates under a 40 m/s impact, docs/slab.md)")
-    steps: int = key(None, integer, positive, section="time", help="steps; default per scale")
+    steps: int = key(None, integer, step_count, section="time",
+                     help="steps; default per scale")
     sample_every: int = key(5, integer, positive, section="output",
                             help="steps between sensor samples")
     check_every: int = key(50, integer, positive, section="output",

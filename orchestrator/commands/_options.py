@@ -15,6 +15,22 @@ def add_weighting(p, default):
                         f"(default {default})")
 
 
+def count(text):
+    """An integer >= 1 (threads, runs at a time, steps, layers)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = None
+    if value is None or value < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return value
+
+
+def add_threads(p):
+    p.add_argument("--threads", type=count, default=None,
+                   help="YADE OpenMP threads (default: OMP_NUM_THREADS, else 1)")
+
+
 def add_out(p, what="results folder", required=True):
     p.add_argument("--out", required=required, help=what)
     p.add_argument("--force", action="store_true",

@@ -1,6 +1,6 @@
 """`batch`: many case files, or one case with a parameter table, N runs at a time
 (the Docker image's entrypoint), or a Slurm job array of them."""
-from orchestrator.commands._options import add_out
+from orchestrator.commands._options import add_out, count
 
 NAME = "batch"
 HELP = ("batch CASE.toml [CASE.toml ...] [--table PARAMS] -j N --out DIR: runs and a summary "
@@ -11,7 +11,7 @@ def configure(p):
     p.add_argument("cases", nargs="+", help="case files (one, with --table)")
     p.add_argument("--table", help="parameter table, one run per row: CSV of dotted case keys, "
                                    "or yade-batch's whitespace table")
-    p.add_argument("-j", "--jobs", type=int, default=None, help="runs at a time (default 1)")
+    p.add_argument("-j", "--jobs", type=count, default=None, help="runs at a time (default 1)")
     p.add_argument("--slurm", action="store_true",
                    help="write DIR/batch.sbatch, a Slurm job array of one task per run "
                         "(submit it with sbatch), instead of running")
@@ -30,13 +30,14 @@ def run(args):
     if args.task is not None and (args.slurm or args.jobs is not None or args.force):
         raise ValueError("--task K runs one array task in the folder --slurm wrote: give no "
                          "--slurm, -j or --force with it")
-    jobs = plan(args.cases, args.table)
+    jobs = plan(args.cases, args.table)      # every input checked before the folder is made
     if args.task is not None:
         from orchestrator.slurm import run_task
         row = run_task(jobs, args.out, args.task)
         print(f"batch task {args.task} ({row['name']}): {row['status']} {row['error']}".rstrip())
         return 0 if row["status"] == "ok" else 1
-    out = prepare_out(args.out, args.force)
+    inputs = [*args.cases, *([args.table] if args.table else [])]
+    out = prepare_out(args.out, args.force, inputs)
     if args.slurm:
         from orchestrator.slurm import write_script
         script = write_script(jobs, args.cases, args.table, out)

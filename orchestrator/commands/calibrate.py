@@ -1,7 +1,7 @@
 """`calibrate`: uniaxial compression and tension tests of a CPM packing; fit of the CPM
 micro-parameters to target E, fc (and ν)."""
 from cases.slab import SCALES
-from orchestrator.commands._options import add_out
+from orchestrator.commands._options import add_out, add_threads
 
 NAME = "calibrate"
 HELP = ("uniaxial tests of a CPM packing (E, ν, fc, ft); fit CPM micro-parameters to target "
@@ -36,7 +36,7 @@ def configure(p):
                    help="relative tolerance on E and fc of the fit (default 0.02)")
     p.add_argument("--max-iter", type=int, default=6, help="fit iterations (default 6)")
     p.add_argument("--seed", type=int, default=1, help="packing seed")
-    p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
+    add_threads(p)
     add_out(p, "results folder")
 
 
@@ -52,7 +52,7 @@ def run(args):
         raise ValueError(f"--tol must be in (0, 1), got {args.tol!r}")
     if args.max_iter < 1:
         raise ValueError(f"--max-iter must be >= 1, got {args.max_iter!r}")
-    radius = args.radius if args.radius is not None else SCALES[args.scale]
+    radius = args.radius if args.radius is not None else SCALES[args.scale].radius
     size = cal.check_specimen(radius, args.size)
     target = cal.Target(young=args.young, compressive_strength=args.fc, poisson=args.poisson,
                         density=args.density)

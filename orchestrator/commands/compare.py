@@ -25,9 +25,9 @@ def run(args):
     coupled = [d for d in [args.coupled_dir] if d] + args.coupled
     if not full:
         raise ValueError("give the full run(s): FULL_DIR or --full DIR ...")
-    check_out(args.out, args.force)
+    check_out(args.out, args.force, inputs=[*full, *coupled])
     runs = load(full, coupled, verdict=args.verdict)   # every refusal before the folder is made
-    out = prepare_out(args.out, args.force)
+    out = prepare_out(args.out, args.force, inputs=[*full, *coupled])
     r = compare(*runs, out, verdict=args.verdict)
     for seed, p in r["pairs"].items():
         for name, s in p["sensors"].items():

@@ -1,5 +1,5 @@
 """`run`: a coupled case described in a TOML case file (docs/case-files.md)."""
-from orchestrator.commands._options import add_out
+from orchestrator.commands._options import add_out, add_threads
 
 NAME = "run"
 HELP = "run CASE.toml [--set key=value ...] [--out DIR]: a case described in a case file"
@@ -11,29 +11,34 @@ def configure(p):
                    help="override a case-file key (TOML value), e.g. --set coupling.relaxation=20")
     add_out(p, "results folder (default: results/<case name>)", required=False)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
+    add_threads(p)
     p.add_argument("--resume", metavar="DIR",
                    help="carry on a stopped run from its checkpoint (its folder's case.toml)")
 
 
 def run(args):
     from pathlib import Path
-    from cases.kinds import load_case as load, run_case
-    from orchestrator.run.folder import check_out
+    from cases.kinds import case_inputs, load_case as load, run_case
+    from orchestrator.run.folder import check_out, resume_folder, input_files
     if args.resume:
-        if args.case or args.set or args.out:
+        if args.case or args.set or args.out or args.force:
             raise ValueError("--resume DIR takes the case, its settings and the folder from DIR: "
-                             "give no case file, --set or --out with it")
-        from orchestrator.run.restart import read_meta
+                             "give no case file, --set, --out or --force with it")
+        from orchestrator.run.restart import check_inputs, resume_meta
         out = Path(args.resume)
-        read_meta(out)                        # a clear error if there is no checkpoint
+        info = resume_meta(out)["info"]       # a clear error if there is no checkpoint
+        if not (out / "case.toml").is_file() and "spec" in info:
+            raise ValueError(f"{out} holds a checkpoint of the slab command (no case.toml): "
+                             f"resume it with `slab --resume`")
         case = load(out / "case.toml")
+        check_inputs(out, case_inputs(case))  # the same case, before anything is built
+        resume_folder(out)
     else:
         if not args.case:
             raise ValueError("give a case file, or --resume DIR")
         case = load(args.case, args.set)      # every key checked before anything runs
         out = Path(args.out or Path("results") / case["case"]["name"])
-        check_out(out, args.force)            # refuse before building, not after
+        check_out(out, args.force, input_files(case))   # refuse before building, not after
     s = run_case(case, out, force=args.force, quiet=args.quiet, threads=args.threads,
                  resume=bool(args.resume))
     if case.kind == "wave1d":        # the wave1d command printed its own result line

@@ -1,6 +1,6 @@
 """`slab`: the paper's slab impact, full YADE or coupled YADE/FEniCSx. Every option but the
 model, threads and folders is a field of cases.slab.SlabSpec, which holds the defaults."""
-from orchestrator.commands._options import add_out, add_spec_options, spec_from_args
+from orchestrator.commands._options import add_out, add_spec_options, add_threads, spec_from_args
 
 NAME = "slab"
 HELP = "slab impact (paper §5): --model full|coupled --scale small|medium|paper"
@@ -8,12 +8,13 @@ HELP = "slab impact (paper §5): --model full|coupled --scale small|medium|paper
 
 def configure(p):
     from cases.slab import MODELS, SlabSpec
-    p.add_argument("--model", choices=MODELS, default="coupled",
-                   help="full: the whole slab in spheres; coupled (default): DE zone + FE")
+    p.add_argument("--model", choices=MODELS, default=None,
+                   help="full: the whole slab in spheres; coupled: DE zone + FE "
+                        "(required for a new run)")
     add_spec_options(p, SlabSpec)
     p.add_argument("--seeds", type=_seed_list, metavar="N,N,...",
                    help="an ensemble: one run per packing seed, in DIR/seed-N (instead of --seed)")
-    p.add_argument("--threads", type=int, default=None, help="YADE OpenMP threads")
+    add_threads(p)
     p.add_argument("--resume", metavar="DIR",
                    help="carry on a stopped run from its checkpoint (other options are taken "
                         "from it)")
@@ -22,23 +23,35 @@ def configure(p):
 
 
 def run(args):
+    from dataclasses import fields
+    from pathlib import Path
     from mpi4py import MPI
     from cases import slab
-    from orchestrator.run.folder import prepare_out
+    from orchestrator.run import folder
     if args.resume:
-        from orchestrator.run.restart import read_meta
-        info = read_meta(args.resume)["info"]
-        spec, model, args.out = slab.SlabSpec(**info["spec"]), info["model"], args.resume
-    elif args.out:
+        given = [f"--{f.name.replace('_', '-')}" for f in fields(slab.SlabSpec)
+                 if getattr(args, f.name, None) is not None]
+        given += [o for o, v in (("--model", args.model), ("--out", args.out),
+                                 ("--force", args.force), ("--seeds", args.seeds)) if v]
+        if given:
+            raise ValueError(f"--resume DIR takes the slab and its folder from DIR's "
+                             f"checkpoint: give no {', '.join(given)} with it")
+        from orchestrator.run.restart import resume_meta
+        info = resume_meta(args.resume)["info"]
+        if "spec" not in info or "model" not in info:
+            raise ValueError(f"{args.resume} holds a checkpoint of case {info.get('case')!r}, "
+                             f"not of a slab run: resume it with `run --resume`")
+        spec, model = slab.SlabSpec(**info["spec"]), info["model"]
+    elif args.out and args.model:
         if args.seeds and args.seed is not None:
             raise ValueError("give either --seed or --seeds, not both")
         spec, model = spec_from_args(slab.SlabSpec, args), args.model
+        folder.check_out(args.out, args.force)      # refuse before building, not after
     else:
-        raise ValueError("give --out DIR for a new run, or --resume DIR")
+        raise ValueError("give --model full|coupled and --out DIR for a new run, or --resume DIR")
     if args.seeds:
-        if MPI.COMM_WORLD.size > 1 or args.resume:
-            raise ValueError("--seeds runs its members one after the other: not under mpirun, "
-                             "and resume each member with --resume DIR/seed-N")
+        if MPI.COMM_WORLD.size > 1:
+            raise ValueError("--seeds runs its members one after the other: not under mpirun")
         return _ensemble(spec, model, args)
     comm = MPI.COMM_WORLD
     if comm.size > 1:
@@ -50,27 +63,32 @@ def run(args):
             grid = slab.slab_grid(spec)
             serve(slab.fe_model(spec, grid, slab.fe_weight(spec, grid)))
             return 0
-    from pathlib import Path
     from yade_side import import_yade
     import_yade(args.threads)
-    out = Path(args.resume) if args.resume else prepare_out(args.out, args.force)
-    _report(model, spec, slab.run(spec, model, out, quiet=args.quiet, resume=bool(args.resume)),
-            out)
+    if args.resume:
+        out, start = Path(args.resume), None
+        folder.resume_folder(out)
+    else:
+        out, start = Path(args.out), lambda: folder.prepare_out(args.out, args.force)
+    s = slab.run(spec, model, out, quiet=args.quiet, resume=bool(args.resume), start=start)
+    _report(model, spec, s, out)
     return 0
 
 
 def _ensemble(spec, model, args):
-    """One member per seed, one after the other in this process: DIR/seed-N."""
+    """One member per seed, one after the other in this process: DIR/seed-N, each folder made
+    once its model is built."""
     from dataclasses import replace
+    from pathlib import Path
     from cases import slab
     from orchestrator.run.folder import prepare_out
     from yade_side import import_yade
     import_yade(args.threads)
     top = prepare_out(args.out, args.force)
     for seed in args.seeds:
-        member = replace(spec, seed=seed)
-        out = prepare_out(top / f"seed-{seed}")
-        _report(model, member, slab.run(member, model, out, quiet=args.quiet), out)
+        member, out = replace(spec, seed=seed), Path(top / f"seed-{seed}")
+        s = slab.run(member, model, out, quiet=args.quiet, start=lambda: prepare_out(out))
+        _report(model, member, s, out)
     return 0
 
 

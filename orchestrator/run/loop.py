@@ -5,8 +5,14 @@ import logging
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+from orchestrator.casefile import MAX_STEPS
+
 log = logging.getLogger("orchestrator.run")
 log.propagate = False      # run.log only: the console has the progress bar and the summary
+
+
+class StepFailed(RuntimeError):
+    """A step raised (e.g. a script's PyRunner): one line; the whole message is in run.log."""
 
 
 @dataclass
@@ -22,13 +28,17 @@ class Schedule:
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        if self.steps > MAX_STEPS:
+            raise ValueError(f"steps must be at most {MAX_STEPS:.0e}, got {self.steps!r}")
 
 
 def run(model, schedule, out, title, reference_energy, info=None, arrays=None, checks=None,
-        notes=(), quiet=False, resume=False):
+        notes=(), quiet=False, resume=False, inputs=None):
     """Run `model` for schedule.steps and write its results folder `out` (already prepared).
 
-    info: entries put first in summary.json; arrays: extra entries of damage.npz;
+    info: entries put first in summary.json; arrays: extra entries of damage.npz; inputs:
+    what the results depend on (orchestrator.run.inputs), kept in checkpoints and compared
+    on resume;
     checks(final_damage) -> warnings; notes: set-up remarks for the log; resume: carry on
     from the checkpoint in `out`. Checkpoints every schedule.checkpoint_every steps and when
     SIGTERM asks the run to stop (then raises restart.Stopped). Returns the summary.
@@ -42,7 +52,8 @@ def run(model, schedule, out, title, reference_energy, info=None, arrays=None, c
                  len(m.bridge_index), m.dt, m.critical, schedule.steps)
         for note in notes:
             log.info("note: %s", note)
-        meta = {**restart.fingerprint(m, title, schedule.steps), "info": info or {}}
+        meta = {**restart.fingerprint(m, title, schedule.steps), "info": info or {},
+                "inputs": inputs or {}}
         recorder = Recorder(m, out, meta, reference_energy, log, resume)
         _loop(m, schedule, recorder, title, quiet)
         wall = recorder.finish()
@@ -61,10 +72,18 @@ def run(model, schedule, out, title, reference_energy, info=None, arrays=None, c
 def _loop(m, schedule, recorder, title, quiet):
     from orchestrator.run import restart
     from orchestrator.run.progress import progress
+    from yade_side.user_script import pyrunner_failure, step_error
     s, rec = schedule, recorder.rec
     with restart.StopRequest() as stop, progress(s.steps, title, quiet, initial=rec.n) as bar:
         for n in range(rec.n + 1, s.steps + 1):
-            m.step()
+            try:
+                m.step()
+            except RuntimeError as e:           # YADE's errors, a PyRunner's among them
+                log.error("step %d raised:\n%s", n, e)
+                raise StepFailed(f"step {n}: {step_error(e)}") from None
+            failure = pyrunner_failure()
+            if failure:
+                raise StepFailed(f"step {n}: {failure}")
             t = n * m.dt
             if n % s.sample_every == 0:
                 recorder.sample(t)
@@ -76,9 +95,10 @@ def _loop(m, schedule, recorder, title, quiet):
             if recorder.checkpoints and n < s.steps and (
                     stop.requested or n % s.checkpoint_every == 0):
                 recorder.checkpoint(n)
-                if stop.requested:
-                    raise restart.Stopped(f"stopped at step {n} of {s.steps}: resume with "
-                                          f"--resume {recorder.out}")
+            if stop.requested and n < s.steps:
+                how = (f"resume with --resume {recorder.out}" if recorder.checkpoints else
+                       "no checkpoint (the FE state is distributed over MPI ranks)")
+                raise restart.Stopped(f"stopped at step {n} of {s.steps}: {how}", stop.signum)
 
 
 @contextmanager

@@ -25,7 +25,12 @@ CHECKPOINT = "checkpoint"
 
 
 class Stopped(RuntimeError):
-    """The run was asked to stop (SIGTERM) and left a checkpoint."""
+    """The run was asked to stop (SIGTERM, SIGINT) and left a checkpoint; `code` is the exit
+    code (128 + the signal's number: 143, 130)."""
+
+    def __init__(self, message, signum=signal.SIGTERM):
+        super().__init__(message)
+        self.code = 128 + int(signum)
 
 
 @dataclass
@@ -86,7 +91,27 @@ def read_meta(out):
     try:
         return json.loads((folder / "meta.json").read_text())
     except (OSError, ValueError) as e:
-        raise ValueError(f"{folder}: unreadable checkpoint ({e})") from None
+        raise ValueError(f"{folder / 'meta.json'}: unreadable checkpoint file ({e})") from None
+
+
+def resume_meta(out):
+    """read_meta of a run that can be resumed: refuses a finished one."""
+    if (Path(out) / "summary.json").is_file():
+        raise ValueError(f"{out} holds a finished run (summary.json): nothing to resume")
+    return read_meta(out)
+
+
+def check_inputs(out, inputs):
+    """Refuse to carry on the checkpoint in `out` with other inputs than it was written with
+    (orchestrator.run.inputs): ValueError naming each difference. Returns the meta.json."""
+    from orchestrator.run.inputs import differences
+    saved = read_meta(out)
+    changed = differences(saved.get("inputs"), inputs or {})
+    if changed:
+        raise ValueError(f"{out}: the case changed since the checkpoint, and a resumed run "
+                         f"would mix two models ({'; '.join(changed)}); restore it, or start "
+                         f"a new run with --out")
+    return saved
 
 
 def load(out, model, meta):
@@ -94,17 +119,24 @@ def load(out, model, meta):
     ValueError, before touching the model, if the checkpoint is not of this model."""
     from yade_side.checkpoint import load_scene
     folder = _folder(out)
-    saved = read_meta(out)
+    saved = check_inputs(out, meta.get("inputs"))
     mismatch = {k: (saved.get(k), v) for k, v in meta.items()
-                if k != "info" and saved.get(k) != v}
+                if k not in ("info", "inputs") and saved.get(k) != v}
     if mismatch:
         raise ValueError(f"{folder} was written by another run: " + ", ".join(
             f"{k} {a!r} there, {b!r} here" for k, (a, b) in mismatch.items()))
     try:
         with np.load(folder / "state.npz") as data:
             state = {k: data[k] for k in data.files}
-    except (OSError, ValueError, zipfile.BadZipFile) as e:
-        raise ValueError(f"{folder}: unreadable state.npz ({e})") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
+        raise ValueError(f"{folder / 'state.npz'}: unreadable checkpoint file ({e})") from None
+    needed = ["n", "times", "history", "energy", "maps_t", "maps", "gaps", "wall_s"]
+    needed += ["fe_u", "fe_v", "fe_t"] if model.fe is not None else []
+    needed += ["rotation", "rotation_pred"] if model.stepper is not None else []
+    missing = [k for k in needed if k not in state]
+    if missing:
+        raise ValueError(f"{folder / 'state.npz'}: unreadable checkpoint file (no "
+                         f"{', '.join(missing)} in it)")
     load_scene(folder / "yade")
     if model.fe is not None:
         model.fe.u, model.fe.v, model.fe.t = state["fe_u"], state["fe_v"], float(state["fe_t"])
@@ -131,18 +163,24 @@ def _folder(out):
 
 
 class StopRequest:
-    """While active, SIGTERM asks the run to stop after the current step (with a checkpoint)
-    instead of killing it."""
+    """While active, SIGTERM or SIGINT (Ctrl-C) asks the run to stop after the current step
+    (with a checkpoint) instead of killing it; `signum` is the signal received."""
+    SIGNALS = (signal.SIGTERM, signal.SIGINT)
 
     def __init__(self):
-        self.requested = False
+        self.signum = None
+
+    @property
+    def requested(self):
+        return self.signum is not None
 
     def __enter__(self):
-        self._previous = signal.signal(signal.SIGTERM, self._handle)
+        self._previous = {s: signal.signal(s, self._handle) for s in self.SIGNALS}
         return self
 
     def __exit__(self, *_):
-        signal.signal(signal.SIGTERM, self._previous)
+        for s, handler in self._previous.items():
+            signal.signal(s, handler)
 
-    def _handle(self, *_):
-        self.requested = True
+    def _handle(self, signum, _frame):
+        self.signum = signum

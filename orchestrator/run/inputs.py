@@ -1,0 +1,63 @@
+"""What a run's results depend on, as flat {dotted key: value}: every key of its case (or
+slab description) but those that cannot change a result, and the content of the files the
+case reads. A checkpoint keeps them; a resumed run must have the same, or it would mix two
+models in one set of results (orchestrator.run.restart names the differences)."""
+import hashlib
+import json
+from dataclasses import asdict
+from pathlib import Path
+
+# keys that change no result: free text, how often the run checkpoints
+IGNORED = {"case.description", "output.checkpoint_every", "checkpoint_every"}
+FILES = ("de.script", "fe.mesh")     # case keys naming a file whose content is an input
+
+
+def flatten(data, prefix=""):
+    """{dotted key: value} of nested tables; arrays of tables as key[i].sub."""
+    flat = {}
+    for key, value in data.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, dict):
+            flat.update(flatten(value, f"{name}."))
+        elif isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+            for i, item in enumerate(value):
+                flat.update(flatten(item, f"{name}[{i}]."))
+        else:
+            flat[name] = value
+    return flat
+
+
+def case_inputs(case):
+    """The inputs of a generic case: its checked keys (defaults filled in) and the content of
+    its script and mesh files."""
+    flat = {k: v for k, v in flatten(case.data).items() if k not in IGNORED}
+    for key in FILES:
+        if flat.get(key, "box") != "box":
+            flat[f"content of {key}"] = digest(flat[key])
+    return flat
+
+
+def spec_inputs(spec, model):
+    """The inputs of a slab run: its model and every field of its description."""
+    flat = {k: v for k, v in asdict(spec).items() if k not in IGNORED}
+    return {"model": model, **flat}
+
+
+def digest(path):
+    path = Path(path)
+    return ("sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+            if path.is_file() else "missing")
+
+
+def differences(saved, now):
+    """One line per key whose value differs: 'key: A at the checkpoint, B now'; `saved` was
+    read from the checkpoint's JSON, `now` goes through JSON too (tuples become lists)."""
+    if saved is None:
+        return ["the checkpoint does not record its case (written by an earlier version)"]
+    now = json.loads(json.dumps(now, default=str))
+    missing = object()
+    show = lambda v: "absent" if v is missing else repr(v)
+    return [f"{key}: {show(saved.get(key, missing))} at the checkpoint, "
+            f"{show(now.get(key, missing))} now"
+            for key in sorted(saved.keys() | now.keys())
+            if saved.get(key, missing) != now.get(key, missing)]
