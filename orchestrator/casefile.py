@@ -80,6 +80,11 @@ def relaxation(v):
         number(v) if number(v)[1] is None else (None, 'a number or "auto"'))
 
 
+def integer_or_auto(v):
+    return ("auto", None) if v == "auto" else (
+        integer(v) if integer(v)[1] is None else (None, 'an integer or "auto"'))
+
+
 def choice(*options):
     def check(v):
         return (v, None) if v in options else (None, f"one of {', '.join(map(repr, options))}")

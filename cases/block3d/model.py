@@ -1,7 +1,7 @@
 """The coupled block built through orchestrator.builder, and its weighted energy."""
 import numpy as np
 
-from cases.block3d.spec import UniformOverlap
+from cases.block3d.spec import UniformOverlap, cubic_lattice
 
 
 class BlockScene:
@@ -17,7 +17,10 @@ class BlockScene:
         from yade_side.packing import add_spheres, dense_box_packing, packing_fraction, sphere_arrays
         from yade_side.scene import reset_scene
         yade, s = import_yade(), self.spec
-        centres, radii = sphere_arrays(dense_box_packing((0, 0, 0), s.de_hi, s.radius))
+        if s.packing == "cubic":
+            centres, radii = cubic_lattice(s.de_hi, s.radius)
+        else:
+            centres, radii = sphere_arrays(dense_box_packing((0, 0, 0), s.de_hi, s.radius))
         fraction = packing_fraction(radii, np.prod(s.de_hi))
         reset_scene()
         mat = yade.Omega().materials.append(yade.wrapper.CpmMat(

@@ -25,6 +25,19 @@ import numpy as np
 
 from orchestrator.coupling.bridging import check_weighting
 
+PACKINGS = ("random", "cubic")
+
+
+def cubic_lattice(hi, radius):
+    """Centres of a simple cubic lattice of spacing 2R filling the box [0, hi] (the outer
+    spheres touch its faces), and their radii. Its cohesive links (made up to 1.5 × the sum
+    of radii) join each sphere to its 6 face and 12 edge neighbours: a set with cubic
+    symmetry, so under an affine displacement with the spheres rotating as ½ curl u the link
+    forces and moments on every interior sphere cancel in opposite pairs."""
+    axes = [np.arange(radius, h - radius * (1 - 1e-9), 2 * radius) for h in hi]
+    centres = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    return centres, np.full(len(centres), float(radius))
+
 
 @dataclass
 class BlockSpec:
@@ -44,6 +57,9 @@ class BlockSpec:
     rotations: bool = True
     uniform_weight: float = None       # α everywhere: spheres and FE overlap on the whole block
     weighting: str = "nodal"           # "nodal" (the paper's) or "consistent" (see above)
+    packing: str = "random"            # "random" (dense random packing) or "cubic" (simple
+                                       # cubic lattice of spacing 2R: an affine field is an
+                                       # exact equilibrium of its links)
 
     def __post_init__(self):
         self.size = tuple(float(s) for s in self.size)
@@ -54,6 +70,8 @@ class BlockSpec:
         if not 0 < self.dt_safety <= 1:
             raise ValueError(f"block: dt_safety must be in (0, 1], got {self.dt_safety!r}")
         check_weighting("block", self.weighting)
+        if self.packing not in PACKINGS:
+            raise ValueError(f"block: packing must be one of {PACKINGS}, got {self.packing!r}")
         if self.uniform_weight is not None and not 0 < self.uniform_weight < 1:
             raise ValueError(f"block: uniform_weight must be in (0, 1), got {self.uniform_weight!r}")
         cells = (np.array(self.size) - self.fe_lo) / self.element

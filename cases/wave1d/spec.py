@@ -19,11 +19,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from orchestrator.casefile import (choice, integer, non_negative, number, positive,
-                                   relaxation as relaxation_kind, safety_range, spec_key as key)
+from orchestrator.casefile import (choice, integer, integer_or_auto as layers_kind, non_negative,
+                                   number, positive, relaxation as relaxation_kind, safety_range,
+                                   spec_key as key)
 from orchestrator.coupling.bridging import WEIGHTINGS, check_weighting
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.coupling.relaxation import auto_relaxation
+from orchestrator.coupling.relaxation import auto_coupling, auto_relaxation
 
 E, RHO = 30e9, 2400.0          # concrete-like bar (m, kg, s)
 C = math.sqrt(E / RHO)
@@ -39,23 +40,32 @@ class Wave1DSpec:
                        help="multiplier solver")
     relaxation: object = key("auto", relaxation_kind, positive, section="coupling",
                              help="relaxation r >= 1, or 'auto': the rule of docs/wave1d.md")
-    layers: int = key(3, integer, positive, section="coupling", help="bridging FE layers n_b")
+    layers: object = key(3, layers_kind, positive, section="coupling",
+                         help="bridging FE layers n_b, or 'auto' (with relaxation 'auto'): the "
+                              "rule widens the band where r alone misses the goal")
     ratio: int = key(5, integer, positive, section="wave1d",
                      help="FE element length / sphere spacing")
     element: float = key(0.05, number, positive, section="wave1d",
                          help="FE element length h (m); section h × h")
     dt_safety: float = key(0.8, number, safety_range, section="time",
                            help="time step / the smaller critical step")
-    weighting: str = key("nodal", choice(*WEIGHTINGS), section="coupling",
-                         help="bridging weights: 'nodal' (the paper's) or 'consistent'")
+    weighting: str = key("consistent", choice(*WEIGHTINGS), section="coupling",
+                         help="bridging weights: 'consistent' or 'nodal' (the paper's)")
     lf_amplitude: float = key(1e-6, number, non_negative, section="wave1d",
                               help="low-frequency pulse amplitude (m)")
     hf_amplitude: float = key(2e-7, number, non_negative, section="wave1d",
                               help="high-frequency packet amplitude (m)")
+    rule: str = None                 # set by "auto": why the rule took its r and n_b
 
     def __post_init__(self):
         if self.variant not in ("full", "diagonal"):
             raise ValueError(f"wave1d: variant must be 'full' or 'diagonal', got {self.variant!r}")
+        auto_layers = self.layers == "auto"
+        if auto_layers:
+            if self.relaxation != "auto":
+                raise ValueError("wave1d: layers 'auto' needs relaxation 'auto' (the rule picks "
+                                 "both)")
+            self.layers = 3
         if int(self.layers) != self.layers or self.layers < 1:
             raise ValueError(f"wave1d: layers must be an integer >= 1, got {self.layers!r}")
         if int(self.ratio) != self.ratio or self.ratio < 2:
@@ -72,9 +82,13 @@ class Wave1DSpec:
         check_weighting("wave1d", self.weighting)
         if not 0 < self.dt_safety <= 1:
             raise ValueError(f"wave1d: dt_safety must be in (0, 1], got {self.dt_safety!r}")
-        if self.relaxation == "auto":
+        if auto_layers:
+            self.relaxation, self.layers, self.rule = auto_coupling(
+                self.ratio, self.layers, self.variant, self.dt_safety, self.weighting)
+        elif self.relaxation == "auto":
             self.relaxation = auto_relaxation(self.ratio, self.layers, self.variant,
-                                              self.dt_safety)
+                                              self.dt_safety, self.weighting)
+            self.rule = f"r with the most margin to the goal at n_b = {self.layers}"
         try:
             self.relaxation = float(self.relaxation)
         except (TypeError, ValueError):

@@ -19,4 +19,6 @@ def run(args):
     out = prepare_out(args.out, args.force)
     summary = wave1d.run_to_folder(spec, out)
     print(wave1d.result_line(spec, summary, out))
+    if spec.rule:
+        print(f"rule: {spec.rule}")
     return 0

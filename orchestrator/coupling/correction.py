@@ -90,6 +90,12 @@ class Coupling:
             blocks = [(0, 3 * n), (3 * n, 6 * n)] if rotations else [(0, 3 * n)]
             self.solver = DiagonalSolver(self.G, self.de_inv_mass, self.fe_inv_mass, self.dt,
                                          blocks)
+        # rotation rows whose lumped multiplier fell back on the absolute row sum (the diagonal
+        # solver's stability guard): on those the rotation constraint is enforced more weakly
+        guarded = (self.solver.guarded[self.solver.guarded >= 3 * n]
+                   if variant == "diagonal" and rotations else np.zeros(0, int))
+        self.guarded_rotation_rows = len(guarded)
+        self.guarded_rotation_spheres = np.unique((guarded - 3 * n) // 3)  # their spheres
         self.lumping_ratio = 1.0 if variant == "full" else lumping_ratio(
             self.G, self.de_inv_mass, self.fe_inv_mass, self.dt, self.solver.diagonal)
         if self.relaxation < 0.5 * self.lumping_ratio:

@@ -57,7 +57,7 @@ class DiagonalSolver:
     rotations separately: dropping B). A row whose sum falls below its own diagonal term
     (rotation rows: h has entries of both signs) would over-correct; such rows use the
     absolute row sum instead, a Gershgorin bound that keeps the update stable.
-    `guarded_rows` counts them.
+    `guarded` lists them (row indices), `guarded_rows` counts them, `guarded_per_block` per block.
 
     S itself is never formed (S = Δt²(D⁻¹ + G W⁻¹ Gᵀ) couples every pair of spheres sharing
     an element node: 31 M non-zeros for 4,919 bridging spheres): row sums are two products
@@ -72,18 +72,21 @@ class DiagonalSolver:
         dt2 = dt * dt
         diagonal = dt2 * (de_inv_mass + G.multiply(G) @ fe_inv_mass)
         self.diagonal = np.empty(G.shape[0])
-        self.guarded_rows = 0
+        self.guarded_per_block, guarded_all = [], []
         for lo, hi in blocks:
             Gb = G[lo:hi]
             lumped = dt2 * (de_inv_mass[lo:hi] + Gb @ (fe_inv_mass * np.asarray(Gb.sum(axis=0)).ravel()))
             guarded = np.flatnonzero(lumped < diagonal[lo:hi])
-            self.guarded_rows += len(guarded)
+            self.guarded_per_block.append(len(guarded))
+            guarded_all.append(lo + guarded)
             GbW = Gb @ sp.diags(fe_inv_mass)
             for start in range(0, len(guarded), chunk):
                 rows = guarded[start:start + chunk]
                 coupling = abs(GbW[rows] @ Gb.T).tocsr()  # |off-diagonal + diagonal coupling terms|
                 lumped[rows] = dt2 * (de_inv_mass[lo + rows] + np.asarray(coupling.sum(axis=1)).ravel())
             self.diagonal[lo:hi] = lumped
+        self.guarded = np.concatenate(guarded_all) if guarded_all else np.zeros(0, int)
+        self.guarded_rows = len(self.guarded)
         self._inverse = 1.0 / self.diagonal
 
     def solve(self, g):
