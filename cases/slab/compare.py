@@ -31,8 +31,9 @@ class Run:
         except (OSError, ValueError) as e:
             raise ValueError(f"{summary}: unreadable ({e})") from None
         if "spec" not in self.summary or "model" not in self.summary:
-            raise ValueError(f"{self.folder} holds a run of case {self.summary.get('case')!r}, "
-                             f"not a slab run: compare takes full and coupled slab runs")
+            raise ValueError(f"{self.folder} holds a run of case {self.summary.get('case')!r} "
+                             f"({self.summary.get('kind')}), not a slab run: compare takes full "
+                             f"and coupled slab runs")
         for name in ("sensors.csv", "damage.npz"):
             if not (self.folder / name).is_file():
                 raise FileNotFoundError(f"{self.folder} has no {name}: not a finished slab run")
@@ -55,7 +56,8 @@ def members(folders, model):
         for part in parts:
             run = Run(part.parent)
             if run.model != model:
-                raise ValueError(f"{run.folder} holds a {run.model!r} run, expected {model!r}")
+                raise ValueError(f"{run.folder} holds a {run.model!r} slab run, expected {model!r} "
+                                 f"(compare FULL COUPLED)")
             if run.seed in runs:
                 raise ValueError(f"two {model} runs have seed {run.seed}: {runs[run.seed].folder} "
                                  f"and {run.folder}")
