@@ -267,7 +267,8 @@ def _relaxation(d, bridge, dt, critical):
         return float(spec.relaxation), []
     ratio = d.bridging.width / d.bridging.layers / (2 * bridge.radius.mean())
     safety = dt / min(v for v in critical.values() if v is not None)
-    r = float(auto_relaxation(ratio, d.bridging.layers, spec.variant, safety))
-    return r, [f"relaxation auto: r = {r:.4g} for a discretisation ratio {ratio:.3g} (element "
-               f"size / mean sphere diameter), {d.bridging.layers} layers, {spec.variant} "
-               f"solver, dt = {safety:.3g} × the critical step"]
+    r = float(auto_relaxation(ratio, d.bridging.layers, spec.variant, safety, spec.weighting))
+    return r, [f"relaxation auto: r = {r:.4g}, the 1D band's r with the most margin to the goal "
+               f"(docs/wave1d.md) for a discretisation ratio {ratio:.3g} (element size / mean "
+               f"sphere diameter), {d.bridging.layers} layers, {spec.variant} solver, "
+               f"{spec.weighting} weighting, dt = {safety:.3g} × the critical step"]

@@ -102,6 +102,7 @@ class SlabSpec:
                                       help="fc (Pa), for the post-run FE check")
     tensile_strength: float = key(None, number, positive, section="material",
                                   help="ft (Pa), for the post-run FE check; default per scale")
+    relaxation_rule: str = None      # set by relaxation "auto": what the rule took r from
 
     def __post_init__(self):
         check_spec(self, "slab")
@@ -114,7 +115,11 @@ class SlabSpec:
             from orchestrator.coupling.relaxation import auto_relaxation
             ratio = slab_grid(self).h / (2 * self.radius)
             self.relaxation = float(auto_relaxation(ratio, self.layers, self.variant,
-                                                    self.dt_safety))
+                                                    self.dt_safety, self.weighting))
+            self.relaxation_rule = (f"relaxation auto: the 1D band's r with the most margin to "
+                                    f"the goal at ratio {ratio:.3g}, n_b = {self.layers}, dt = "
+                                    f"{self.dt_safety:g} × critical, {self.variant}, "
+                                    f"{self.weighting} (docs/wave1d.md)")
 
     @property
     def cpm(self):

@@ -30,9 +30,20 @@ def summary(model, rec, schedule, wall, seconds, warnings, info):
         "constraint_gap": rec.gaps,
         "coupling_energy_J": None if stepper is None else {
             "to_fe": stepper.exchange.to_fe, "net": stepper.exchange.net},
+        "coupling": None if stepper is None else coupling_figures(stepper.coupling),
         "warnings": warnings,
     })
     return out
+
+
+def coupling_figures(c):
+    """What summary.json records of the coupling: the solver, r, and how many rotation rows
+    the diagonal solver's stability guard weakens (the absolute row sum in the lumped
+    multiplier: the rotation constraint is then enforced more softly)."""
+    return {"variant": c.variant, "relaxation": c.relaxation, "rotations": c.rotations,
+            "bridging_spheres": c.n, "rotation_rows": 3 * c.n if c.rotations else 0,
+            "guarded_rotation_rows": c.guarded_rotation_rows,
+            "lumping_ratio": c.lumping_ratio}
 
 
 def write_results(out, title, model, rec, summary_data, arrays=None):
