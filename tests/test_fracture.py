@@ -1,5 +1,8 @@
 """Fracture energy of CPM packings (yade_side.fracture) against CPM's link law integrated exactly."""
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,6 +16,7 @@ from yade_side.scene import BROKEN_OMEGA
 from test_calibration import lattice
 
 yade = import_yade()
+REPO = Path(__file__).resolve().parents[1]
 
 
 @pytest.mark.parametrize("rel_ductility", [5.0, 30.0])
@@ -47,7 +51,7 @@ def test_lattice_dissipates_the_energy_of_its_links(rel_ductility):
     rate = 0.2
     run = separation_test(lattice((2, 3, 3), R, d), None,
                           Loading(strain_rate=rate, tension_rate=rate, sample_strain=1e-6),
-                          material=mat)
+                          material=mat, notch=0.0)
     exact = math.pi * R**2 * link_work_density(E, e0, rel_ductility) / d
     delta = rate * run["dt"]
     assert run["separated"]
@@ -64,3 +68,18 @@ def test_mc2010_fracture_energy():
         mc2010_fracture_energy(0)
     with pytest.raises(ValueError, match="link energy factor"):
         ductility_for_factor(200.0)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--gf", "-5"], "error: target fracture_energy must be a positive number (J/m²), got -5.0"),
+    (["--gf-tol", "2"], "error: --gf-tol must be in (0, 1), got 2.0"),
+    (["--gf", "100", "--no-gf"], "error: --gf 100.0 and --no-gf exclude each other"),
+    (["--shear-contrib", "-1"], "error: concrete parameter equivStrainShearContrib must be a "
+                                "non-negative number, got -1.0"),
+])
+def test_cli_refuses_bad_fracture_options(tmp_path, args, message):
+    r = subprocess.run([sys.executable, "-m", "orchestrator", "calibrate", *args,
+                        "--out", str(tmp_path / "c")], cwd=REPO, capture_output=True, text=True)
+    assert r.returncode == 2
+    assert message in r.stderr
+    assert "Traceback" not in r.stderr and not (tmp_path / "c").exists()

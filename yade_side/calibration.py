@@ -248,7 +248,8 @@ def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0
         record = dict(params=asdict(params), E=c["E"], nu=c["nu"], fc=fc, seconds=c["seconds"])
         line = (f"iteration {it}: young={params.young:.4g} sigmaT={params.sigmaT:.4g} "
                 f"epsCrackOnset={params.epsCrackOnset:.4g} poisson={params.poisson:.3g} "
-                f"relDuctility={params.relDuctility:.4g} -> E={c['E'] / 1e9:.2f} GPa "
+                f"relDuctility={params.relDuctility:.4g} "
+                f"xi={params.equivStrainShearContrib:.3g} -> E={c['E'] / 1e9:.2f} GPa "
                 f"nu={c['nu']:.3f} fc={fc / 1e6:.2f} MPa")
         if fit_gf:
             t = fracture.separation_test(sample, params, loading)

@@ -1,9 +1,13 @@
 """Fracture energy of a CPM packing: a direct tension test carried to full separation.
 
 Gf = energy dissipated by the links / ligament area, where
-- the ligament area is the specimen's nominal cross-section W × T (the crack, whatever its
-  path, cuts the whole section at full separation: Gf per projected area, as RILEM's
-  work-of-fracture test defines it);
+- the specimen is notched at mid-length on its two cut sides (y = 0, W: the cohesive links that
+  cross the mid-plane within the notch depth n are deleted), so that the crack runs there and
+  not next to a driven end, through the slab's faces (z) as a slab's crack does; unnotched, the
+  0.56 m slab piece cracked next to an end group and kept 10 % of its peak stress through
+  friction of the wedged end spheres up to a strain of 2e-3;
+- the ligament area is the notched section (W − 2n) × T, the crack's projected area at full
+  separation (Gf per projected area, as RILEM's work-of-fracture test defines it);
 - the energy dissipated by the links is the external work W_ext = ∫ F dΔ of the end groups
   (F the mean of the two end forces, Δ the change of their distance; trapezoidal rule on every
   step) plus the initial kinetic energy of the free spheres, minus, at the end, the elastic energy
@@ -35,7 +39,8 @@ from yade_side.calibration import Loading, uniaxial_scene
 from yade_side.scene import BROKEN_OMEGA, cpm_law
 
 RESIDUAL = 0.01     # full separation: |σ| below this × peak ...
-SEPARATION_STRAIN = 2e-2   # ... reached before this strain between the ends, else not separated
+SEPARATION_STRAIN = 1e-2   # ... reached before this strain between the ends, else not separated
+NOTCH = 0.1         # notch depth on each cut side (y), × the width
 
 
 def mc2010_fracture_energy(fcm):
@@ -80,9 +85,31 @@ def ductility_for_factor(g, threshold=BROKEN_OMEGA):
     return brentq(lambda r: ductility_factor(r, threshold) - g, 1e-6, 1e8, rtol=1e-13)
 
 
+def notch_links(sample, notch):
+    """Delete the cohesive links that cross the mid-plane x = x_mid within `notch` (m) of the
+    cut sides y = 0, y = W: the crack starts there, not at the driven ends. Returns the
+    ligament area (W − 2 notch) × T."""
+    O = import_yade().Omega()
+    width, thickness = sample.size[1], sample.size[2]
+    if not 0 <= notch < width / 2:
+        raise ValueError(f"notch depth must be in [0, {width / 2}) m, got {notch!r}")
+    if notch > 0:
+        x_mid = sample.centres[:, 0].mean()
+        cut = []
+        for I in O.interactions:           # set-up only
+            a, b = O.bodies[I.id1].state.pos, O.bodies[I.id2].state.pos
+            y = 0.5 * (a[1] + b[1])
+            if (a[0] - x_mid) * (b[0] - x_mid) < 0 and (y < notch or y > width - notch):
+                cut.append((I.id1, I.id2))
+        for a, b in cut:
+            O.interactions.erase(a, b)
+    return (width - 2 * notch) * thickness
+
+
 def separation_test(sample, params, loading=Loading(), material=None, residual=RESIDUAL,
-                    max_strain=SEPARATION_STRAIN):
-    """Direct tension at loading.tension_rate until full separation. Returns a dict: strain,
+                    max_strain=SEPARATION_STRAIN, notch=None, log=None):
+    """Direct tension at loading.tension_rate until full separation, the cut sides notched at
+    mid-length (`notch` m deep, default NOTCH × width). Returns a dict: strain,
     stress (sampled every loading.sample_strain / 10), peak (ft), strain_peak, work (J),
     elastic_end, kinetic (initial, end of the free spheres), damping (J), area (m²),
     fracture_energy (J/m²: dissipated by the links / area), work_of_fracture (W_ext / area),
@@ -93,6 +120,7 @@ def separation_test(sample, params, loading=Loading(), material=None, residual=R
     O = yade.Omega()
     ids, strainer, gauge, pair = uniaxial_scene(sample, params, "tension", loading.tension_rate,
                                                 loading, material)
+    area = notch_links(sample, NOTCH * sample.size[1] if notch is None else notch)
     ends = set(strainer.posIds) | set(strainer.negIds)
     free = BodySet([i for i in ids.tolist() if i not in ends])
     # O.energy['nonviscDamp'] would count the damping of the driven ends' reaction forces
@@ -101,7 +129,7 @@ def separation_test(sample, params, loading=Loading(), material=None, residual=R
     O.trackEnergy = True
     kinetic0 = free.kinetic_energy() if len(free) else 0.0
     every = max(1, round(loading.sample_strain / 10 / (loading.tension_rate * O.dt)))
-    area = sample.section
+    section = sample.section            # the strainer's stress is force / section
     work, peak, d_peak, d_high = 0.0, 0.0, 0.0, 0.0
     s_old, d_old = strainer.avgStress, strainer.strain * pair
     strain, stress = [d_old / gauge], [s_old]
@@ -110,7 +138,7 @@ def separation_test(sample, params, loading=Loading(), material=None, residual=R
         for _ in range(every):
             O.step()
             s, d = strainer.avgStress, strainer.strain * pair
-            work += 0.5 * (s + s_old) * area * (d - d_old)
+            work += 0.5 * (s + s_old) * section * (d - d_old)
             s_old, d_old = s, d
             if s > peak:
                 peak, d_peak = s, d
@@ -118,6 +146,9 @@ def separation_test(sample, params, loading=Loading(), material=None, residual=R
                 d_high = d
         strain.append(d / gauge)
         stress.append(s)
+        if log is not None and len(strain) % 100 == 0:
+            log(f"separation test: strain {d / gauge:.3e}, stress {s / 1e6:.3f} MPa "
+                f"(peak {peak / 1e6:.3f}), work {work:.2f} J")
         if not math.isfinite(s):
             raise FloatingPointError(f"separation test: stress is {s} at step {O.iter}")
         if peak > 0 and d - d_high > d_peak:

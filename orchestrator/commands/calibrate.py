@@ -38,6 +38,9 @@ def configure(p):
     p.add_argument("--cpm-poisson", type=float, default=None, help="initial CpmMat.poisson")
     p.add_argument("--rel-ductility", type=float, default=None,
                    help="initial CpmMat.relDuctility")
+    p.add_argument("--shear-contrib", type=float, default=None,
+                   help="CpmMat.equivStrainShearContrib ξ, kept by the fit (default 0: links "
+                        "never break in shear)")
     p.add_argument("--strain-rate", type=float, default=0.05,
                    help="compression strain rate (1/s, default 0.05; tension: 1/10 of it)")
     p.add_argument("--tol", type=float, default=0.02,
@@ -75,7 +78,9 @@ def run(args):
     start = {k: v for k, v in dict(young=args.cpm_young, sigmaT=args.sigma_t,
                                    epsCrackOnset=args.eps_crack_onset,
                                    poisson=args.cpm_poisson,
-                                   relDuctility=args.rel_ductility).items() if v is not None}
+                                   relDuctility=args.rel_ductility,
+                                   equivStrainShearContrib=args.shear_contrib).items()
+             if v is not None}
     params = replace(ConcreteParams(), density=args.density, **start)
     loading = cal.Loading(strain_rate=args.strain_rate, tension_rate=0.1 * args.strain_rate)
     out = prepare_out(args.out, args.force)
@@ -113,6 +118,7 @@ def run(args):
     p = result["params"]
     print(f"CpmMat: young={p['young']:.4g} poisson={p['poisson']:.4g} sigmaT={p['sigmaT']:.4g} "
           f"epsCrackOnset={p['epsCrackOnset']:.4g} relDuctility={p['relDuctility']:.4g} "
+          f"equivStrainShearContrib={p['equivStrainShearContrib']:.4g} "
           f"frictionAngle={p['frictionAngle']:.4g} density={p['density']:.4g} (bulk)")
     gf_text = ("" if macro["fracture_energy"] is None
                else f" Gf={macro['fracture_energy']:.1f} J/m²")
