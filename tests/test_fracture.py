@@ -68,6 +68,8 @@ def test_mc2010_fracture_energy():
         mc2010_fracture_energy(0)
     with pytest.raises(ValueError, match="link energy factor"):
         ductility_for_factor(200.0)
+    with pytest.raises(ValueError, match="link energy factor"):
+        ductility_for_factor(0.5)
 
 
 @pytest.mark.parametrize("args, message", [

@@ -269,17 +269,22 @@ def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0
         if it == max_iter:
             log(f"not converged after {max_iter} iterations")
             break
-        if not nu_ok:
-            history = [(i["params"]["poisson"], i["nu"]) for i in iterations]
-            params = replace(params, poisson=_next_link_ratio(history, target.poisson))
-        params = replace(params, young=params.young * mu, sigmaT=params.sigmaT * mu * lam,
-                         epsCrackOnset=params.epsCrackOnset * lam)
+        ductility = params.relDuctility
         if fit_gf:
             history = [(i["params"]["relDuctility"], i["fracture_energy"]
                         / (i["params"]["young"] * i["params"]["epsCrackOnset"] ** 2))
                        for i in iterations]
-            wanted = target.fracture_energy / (params.young * params.epsCrackOnset ** 2)
-            params = replace(params, relDuctility=fracture.next_ductility(history, wanted))
+            ductility = fracture.next_ductility(history, target.fracture_energy / (
+                params.young * mu * (params.epsCrackOnset * lam) ** 2))
+            if ductility is None:
+                log(f"fracture energy {target.fracture_energy:.4g} J/m² out of reach by "
+                    f"relDuctility (already at its bound {params.relDuctility:.4g})")
+                break
+        if not nu_ok:
+            history = [(i["params"]["poisson"], i["nu"]) for i in iterations]
+            params = replace(params, poisson=_next_link_ratio(history, target.poisson))
+        params = replace(params, young=params.young * mu, sigmaT=params.sigmaT * mu * lam,
+                         epsCrackOnset=params.epsCrackOnset * lam, relDuctility=ductility)
     if not fit_gf:
         t = uniaxial_test(sample, params, "tension", loading)
     return dict(params=asdict(params), compression=c, tension=t, iterations=iterations,

@@ -41,6 +41,7 @@ from yade_side.scene import BROKEN_OMEGA, cpm_law
 RESIDUAL = 0.01     # full separation: |σ| below this × peak ...
 SEPARATION_STRAIN = 1e-2   # ... reached before this strain between the ends, else not separated
 NOTCH = 0.1         # notch depth on each cut side (y), × the width
+MIN_DUCTILITY = 0.1  # relDuctility the fit goes down to (links break at ~1.5 ε0)
 
 
 def mc2010_fracture_energy(fcm):
@@ -77,12 +78,16 @@ def link_work_density(young, eps_crack_onset, rel_ductility, threshold=BROKEN_OM
 
 
 def ductility_for_factor(g, threshold=BROKEN_OMEGA):
-    """relDuctility r with g(r) = g (inverse of ductility_factor)."""
+    """relDuctility r in [MIN_DUCTILITY, 1e8] with g(r) = g (inverse of ductility_factor)."""
+    g_min = ductility_factor(MIN_DUCTILITY, threshold)
     g_max = 0.5 + threshold / (1 - threshold)
-    if not 0.5 < g < g_max:
-        raise ValueError(f"link energy factor must be in (0.5, {g_max:.4g}) with links deleted "
-                         f"at ω > {threshold}, got {g!r}")
-    return brentq(lambda r: ductility_factor(r, threshold) - g, 1e-6, 1e8, rtol=1e-13)
+    if not g_min <= g < g_max:
+        raise ValueError(f"link energy factor must be in [{g_min:.4g}, {g_max:.4g}) "
+                         f"(relDuctility ≥ {MIN_DUCTILITY}, links deleted at ω > {threshold}), "
+                         f"got {g!r}")
+    if g == g_min:
+        return MIN_DUCTILITY
+    return brentq(lambda r: ductility_factor(r, threshold) - g, MIN_DUCTILITY, 1e8, rtol=1e-13)
 
 
 def notch_links(sample, notch):
@@ -171,11 +176,13 @@ def separation_test(sample, params, loading=Loading(), material=None, residual=R
 
 
 def next_ductility(history, wanted, threshold=BROKEN_OMEGA):
-    """relDuctility for the next fit iteration. history: (relDuctility, φ) of the past ones,
-    φ = Gf / (young ε0²), which depends on r only (at a fixed packing, quasi-statically: the
-    link law scales with young ε0 in stress and ε0 in strain); wanted: the φ of the target.
-    With one point φ ∝ g(r) (the links' energy); with more, a secant step on log φ against
-    log g through the last two distinct points. g stays within the values links can reach."""
+    """relDuctility for the next fit iteration, or None if the target is out of reach.
+    history: (relDuctility, φ) of the past iterations, φ = Gf / (young ε0²), which depends on r
+    only (at a fixed packing and ξ, quasi-statically: the link law scales with young ε0 in
+    stress and ε0 in strain); wanted: the φ of the target. With one point φ ∝ g(r) (the links'
+    energy); with more, a secant step on log φ against log g through the last two distinct
+    points. Out of reach: the step asks for g beyond what links can have (relDuctility below
+    MIN_DUCTILITY, or links that never break), from a point already at that bound."""
     g = [ductility_factor(r, threshold) for r, _ in history]
     phi = [p for _, p in history]
     slope = 1.0
@@ -183,5 +190,9 @@ def next_ductility(history, wanted, threshold=BROKEN_OMEGA):
         slope = math.log(phi[-1] / phi[-2]) / math.log(g[-1] / g[-2])
         slope = slope if slope > 0 else 1.0     # φ grows with g; noise must not reverse it
     g_next = g[-1] * (wanted / phi[-1]) ** (1.0 / slope)
-    g_max = 0.5 + threshold / (1 - threshold)
-    return ductility_for_factor(min(max(g_next, 0.5 + 1e-9), g_max * (1 - 1e-9)), threshold)
+    g_min = ductility_factor(MIN_DUCTILITY, threshold)
+    g_max = (0.5 + threshold / (1 - threshold)) * (1 - 1e-9)
+    bounded = min(max(g_next, g_min), g_max)
+    if bounded != g_next and bounded == g[-1]:
+        return None
+    return ductility_for_factor(bounded, threshold)
