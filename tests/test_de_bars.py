@@ -131,3 +131,71 @@ def test_pull_out_gives_the_bond_strength():
     early = slip < 0.5 * slip_yield
     stiffness = np.polyfit(slip[early], force[early], 1)[0]
     assert stiffness == pytest.approx(k_slip * math.pi * D * length, rel=tol)
+
+
+def strip_deflection(layer, load=2e4, tol=2e-4, chunk=500, max_chunks=80):
+    """Mid-span deflection of the small slab's DE strip in 3-point bending (cases.slab_bending's
+    strip, supports, load and gauge; links undamaged), with the bars of `layer` if given, and
+    the PWaveTimeStep without and with them."""
+    from yade import utils
+    from cases import slab, slab_bending as sb
+    from cases.reinforcement import bar_layout
+    from yade_side.bulk import BodySet
+    from yade_side.material import cpm_material
+    O = yade.Omega()
+    spec = slab.SlabSpec(scale="small")
+    packs = slab.make_packings(spec)
+    c, r = sb._strip(packs.slab_centres, packs.slab_radii)
+    reset_scene()
+    ids = add_spheres(c, r, cpm_material(slab.concrete(spec), packs.slab_fraction))
+    dt_plain = utils.PWaveTimeStep()
+    chain = None
+    if layer is not None:
+        y0 = 0.5 * (slab.SLAB[1] - sb.STRIP)
+        bars = bar_layout([layer], (0, y0, 0), (slab.SLAB[0], y0 + sb.STRIP, slab.SLAB[2]))
+        chain = SteelChains(bars, spec.radius, Bond(10e6, 1e11), dt_floor=dt_plain)
+    dt_bars = utils.PWaveTimeStep()
+    _, newton = cpm_engines(dt_safety=0.8)
+    create_cohesive_links()
+    if chain is not None:
+        chain.bond_links()
+    for i in O.interactions:
+        i.phys.neverDamage = True
+    newton.damping = 0.5
+    for i in ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)]:
+        O.bodies[int(i)].state.blockedDOFs = "z"
+    top = sb._top(c, r)
+    for i in ids[top]:
+        O.forces.setPermF(int(i), (0, 0, -load / top.sum()))
+    gauge = BodySet(ids[sb._gauge(c)])
+    last = None
+    for _ in range(max_chunks):
+        O.run(chunk, True)
+        gauge.read()
+        w = float(gauge.displacement()[:, 2].mean())
+        if last is not None and abs(w - last) < tol * abs(w):
+            return -w, dt_plain, dt_bars, chain
+        last = w
+    raise RuntimeError("DE strip deflection did not settle")
+
+
+@pytest.mark.slow
+def test_reinforced_de_strip_bends_like_the_transformed_section():
+    """The small slab's DE strip (0.3 m wide, 2.5 m span, 0.28 m thick) with 3 bars of 20 mm at
+    40 mm from the bottom: its stiffness gain over the plain strip matches the transformed
+    section's I_t / I with n = E_s / E_b, E_b the plain strip's own bending modulus (the DE
+    strip bends like ~17 GPa, docs/slab.md), within 10 %; shear deformation is left out
+    (span/depth 9: ~3 % of the deflection, on both strips alike). The bars leave
+    PWaveTimeStep unchanged."""
+    from cases.reinforcement import Layer, transformed_section
+    from cases.slab_bending import fe_deflection, REFERENCE_E
+    from cases import slab
+    layer = Layer(diameter=0.02, spacing=0.1, direction="x", cover=0.04)
+    plain, _, _, _ = strip_deflection(None)
+    reinforced, dt_plain, dt_bars, chain = strip_deflection(layer)
+    assert dt_bars == pytest.approx(dt_plain, rel=1e-12)
+    e_b = REFERENCE_E * -fe_deflection(slab.SlabSpec(scale="small"), 2e4) / plain
+    n_bars = len(chain.bars)
+    _, inertia = transformed_section(0.3, 0.28, e_b, np.full(n_bars, 0.28 - 0.04),
+                                     chain.bars.area, E_S)
+    assert plain / reinforced == pytest.approx(inertia / (0.3 * 0.28**3 / 12), rel=0.1)

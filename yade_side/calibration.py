@@ -236,12 +236,13 @@ def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0
     compression test gives target E, fc (ν) within tol (nu_tol) and the separation test
     (yade_side.fracture) the target fracture energy within gf_tol; each iteration runs both
     tests. Without a fracture energy target, a tension test gives ft once E and fc fit.
-    Returns dict(params, compression, tension, iterations=[...], converged); `tension` is the
-    separation test when Gf is fitted."""
+    If the Gf target needs a relDuctility beyond its bounds, r stays at the bound and the fit
+    goes on for E and fc (converged: False). Returns dict(params, compression, tension,
+    iterations=[...], converged); `tension` is the separation test when Gf is fitted."""
     from yade_side import fracture     # imports this module
     params = replace(params or ConcreteParams(), density=target.density)
     fit_gf = target.fracture_energy is not None
-    iterations, converged = [], False
+    iterations, converged, gf_out_of_reach = [], False, False
     for it in range(1, max_iter + 1):
         c = uniaxial_test(sample, params, "compression", loading)
         fc = -c["peak"]
@@ -263,23 +264,24 @@ def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0
         lam = target.compressive_strength / (mu * fc)
         nu_ok = target.poisson is None or abs(c["nu"] - target.poisson) <= nu_tol
         gf_ok = not fit_gf or abs(t["fracture_energy"] / target.fracture_energy - 1) <= gf_tol
-        converged = abs(mu - 1) <= tol and abs(mu * lam - 1) <= tol and nu_ok and gf_ok
-        if converged:
+        strength_ok = abs(mu - 1) <= tol and abs(mu * lam - 1) <= tol and nu_ok
+        converged = strength_ok and gf_ok
+        if converged or (strength_ok and gf_out_of_reach):
             break
         if it == max_iter:
             log(f"not converged after {max_iter} iterations")
             break
         ductility = params.relDuctility
-        if fit_gf:
+        if fit_gf and not gf_out_of_reach:
             history = [(i["params"]["relDuctility"], i["fracture_energy"]
                         / (i["params"]["young"] * i["params"]["epsCrackOnset"] ** 2))
                        for i in iterations]
             ductility = fracture.next_ductility(history, target.fracture_energy / (
                 params.young * mu * (params.epsCrackOnset * lam) ** 2))
-            if ductility is None:
+            if ductility is None:     # keep the bound, go on fitting E and fc
+                gf_out_of_reach, ductility = True, params.relDuctility
                 log(f"fracture energy {target.fracture_energy:.4g} J/m² out of reach by "
-                    f"relDuctility (already at its bound {params.relDuctility:.4g})")
-                break
+                    f"relDuctility (at its bound {params.relDuctility:.4g}): fitting E, fc only")
         if not nu_ok:
             history = [(i["params"]["poisson"], i["nu"]) for i in iterations]
             params = replace(params, poisson=_next_link_ratio(history, target.poisson))
