@@ -148,7 +148,7 @@ class ElasticModel:
         self.K = (self.K + add).tocsr()
         self.K.sort_indices()
         self._K_petsc = PETSc.Mat().createAIJ(
-            size=((self.ndof, PETSc.DECIDE), (self.ndof, PETSc.DECIDE)),
+            size=((self.ndof, self.ndof_global), (self.ndof, self.ndof_global)),
             csr=(self.K.indptr.astype(PETSc.IntType), self.K.indices.astype(PETSc.IntType),
                  self.K.data), comm=self.comm)
         self._K_petsc.assemble()
