@@ -140,6 +140,22 @@ class ElasticModel:
             raise ValueError(f"{name}[{bad[0]}] = {value[bad[0]]!r} but that dof is fixed (zero)")
         return value
 
+    def add_stiffness_and_mass(self, stiffness, mass):
+        """Add members that the mesh does not conform to (fenicsx_side.bars): `stiffness`, a
+        sparse (ndof_global, ndof_global) matrix over global dofs, to K, and `mass`
+        (ndof_global,) to the lumped mass. Each rank adds its owned rows."""
+        add = sp.csr_matrix(stiffness)[self.global_dofs]
+        self.K = (self.K + add).tocsr()
+        self.K.sort_indices()
+        self._K_petsc = PETSc.Mat().createAIJ(
+            size=((self.ndof, self.ndof_global), (self.ndof, self.ndof_global)),
+            csr=(self.K.indptr.astype(PETSc.IntType), self.K.indices.astype(PETSc.IntType),
+                 self.K.data), comm=self.comm)
+        self._K_petsc.assemble()
+        self.mass = self.mass + np.asarray(mass, float)[self.global_dofs]
+        self._inv_mass_free = np.where(self.fixed, 0.0, 1.0 / self.mass)
+        self._stress_op = None
+
     # --- time stepping ----------------------------------------------------------------------
     def predict(self, dt):
         """One central-difference step without coupling: v += dt M⁻¹(f_ext − K u); u += dt v."""

@@ -102,11 +102,12 @@ def packed_sample(radius, size, seed=1):
     return Sample(centres[keep], radii[keep], size)
 
 
-def uniaxial_test(sample, params, mode, loading=Loading(), material=None):
-    """One quasi-static uniaxial test, 'compression' or 'tension'. `material` (a CpmMat) replaces
-    the one made from `params` (tests). Returns a dict of arrays sampled every `sample_strain`
-    (strain between the ends, stress, strain_mid and lateral_mid in the middle third) and the
-    measured E, E_ends, ν, peak (signed stress), steps, dt, spheres, seconds."""
+def uniaxial_scene(sample, params, mode, rate, loading=Loading(), material=None):
+    """Build the uniaxial test's scene: spheres, CPM engines with a UniaxialStrainer that drives
+    the end groups apart ('tension') or together ('compression') at `rate`, cohesive links.
+    Returns (ids, strainer, gauge, pair): gauge is the initial distance of the end groups' mean
+    centres, pair the strainer's own reference length (its strain × pair is the change of the
+    distance between the ends)."""
     if mode not in ("compression", "tension"):
         raise ValueError(f"mode must be 'compression' or 'tension', got {mode!r}")
     yade = import_yade()
@@ -123,10 +124,7 @@ def uniaxial_test(sample, params, mode, loading=Loading(), material=None):
     pos = np.flatnonzero(x > x.max() - END_DEPTH * R)
     gauge = x[pos].mean() - x[neg].mean()
     pair = x[pos[0]] - x[neg[0]]     # the strainer's own reference length
-    if mode == "compression":
-        sign, rate = -1.0, loading.strain_rate
-    else:
-        sign, rate = 1.0, loading.tension_rate
+    sign = -1.0 if mode == "compression" else 1.0
     _, newton = cpm_engines(dt_safety=loading.dt_safety)
     newton.damping = loading.damping
     strainer = yade.wrapper.UniaxialStrainer(
@@ -136,6 +134,19 @@ def uniaxial_test(sample, params, mode, loading=Loading(), material=None):
     # forces and positions of the same step: between the interaction loop and the integrator
     O.engines = O.engines[:-1] + [strainer, O.engines[-1]]
     create_cohesive_links()
+    return ids, strainer, gauge, pair
+
+
+def uniaxial_test(sample, params, mode, loading=Loading(), material=None):
+    """One quasi-static uniaxial test, 'compression' or 'tension'. `material` (a CpmMat) replaces
+    the one made from `params` (tests). Returns a dict of arrays sampled every `sample_strain`
+    (strain between the ends, stress, strain_mid and lateral_mid in the middle third) and the
+    measured E, E_ends, ν, peak (signed stress), steps, dt, spheres, seconds."""
+    sign, rate = ((-1.0, loading.strain_rate) if mode == "compression"
+                  else (1.0, loading.tension_rate))
+    ids, strainer, gauge, pair = uniaxial_scene(sample, params, mode, rate, loading, material)
+    O = import_yade().Omega()
+    x = sample.centres[:, 0]
     every = max(1, round(loading.sample_strain / (loading.strain_rate * O.dt)))
 
     lo, hi = np.quantile(x, [1 / 3, 2 / 3])
@@ -191,12 +202,17 @@ class Target:
     compressive_strength: float = 31e6
     poisson: float = None          # None: keep CpmMat.poisson, only report ν
     density: float = 2400.0
+    fracture_energy: float = None  # J/m²; None: keep relDuctility (and ft from a tension test)
 
     def __post_init__(self):
         for name in ("young", "compressive_strength", "density"):
             v = getattr(self, name)
             if not (v > 0 and math.isfinite(v)):
                 raise ValueError(f"target {name} must be a positive number, got {v!r}")
+        gf = self.fracture_energy
+        if gf is not None and not (gf > 0 and math.isfinite(gf)):
+            raise ValueError(f"target fracture_energy must be a positive number (J/m²), "
+                             f"got {gf!r}")
         if self.poisson is not None and not 0 < self.poisson < 0.25:
             raise ValueError(f"target poisson must be in (0, 0.25) (sphere packings with "
                              f"shear links reach ν < 1/4), got {self.poisson!r}")
@@ -215,41 +231,70 @@ def _next_link_ratio(history, nu_target):
 
 
 def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0.01,
-              max_iter=6, log=print):
-    """Fit young, sigmaT, epsCrackOnset (and poisson if targeted) so that the compression test
-    gives target E, fc (ν) within tol (nu_tol), then measure ft by a tension test.
-    Returns dict(params, compression, tension, iterations=[...], converged)."""
+              gf_tol=0.05, max_iter=6, log=print):
+    """Fit young, sigmaT, epsCrackOnset (and poisson, relDuctility if targeted) so that the
+    compression test gives target E, fc (ν) within tol (nu_tol) and the separation test
+    (yade_side.fracture) the target fracture energy within gf_tol; each iteration runs both
+    tests. Without a fracture energy target, a tension test gives ft once E and fc fit.
+    If the Gf target needs a relDuctility beyond its bounds, r stays at the bound and the fit
+    goes on for E and fc (converged: False). Returns dict(params, compression, tension,
+    iterations=[...], converged); `tension` is the separation test when Gf is fitted."""
+    from yade_side import fracture     # imports this module
     params = replace(params or ConcreteParams(), density=target.density)
-    iterations, converged = [], False
+    fit_gf = target.fracture_energy is not None
+    iterations, converged, gf_out_of_reach = [], False, False
     for it in range(1, max_iter + 1):
         c = uniaxial_test(sample, params, "compression", loading)
         fc = -c["peak"]
-        iterations.append(dict(params=asdict(params), E=c["E"], nu=c["nu"], fc=fc,
-                               seconds=c["seconds"]))
-        log(f"iteration {it}: young={params.young:.4g} sigmaT={params.sigmaT:.4g} "
-            f"epsCrackOnset={params.epsCrackOnset:.4g} poisson={params.poisson:.3g} -> "
-            f"E={c['E'] / 1e9:.2f} GPa nu={c['nu']:.3f} fc={fc / 1e6:.2f} MPa "
-            f"({c['seconds']:.1f} s)")
+        record = dict(params=asdict(params), E=c["E"], nu=c["nu"], fc=fc, seconds=c["seconds"])
+        line = (f"iteration {it}: young={params.young:.4g} sigmaT={params.sigmaT:.4g} "
+                f"epsCrackOnset={params.epsCrackOnset:.4g} poisson={params.poisson:.3g} "
+                f"relDuctility={params.relDuctility:.4g} "
+                f"xi={params.equivStrainShearContrib:.3g} -> E={c['E'] / 1e9:.2f} GPa "
+                f"nu={c['nu']:.3f} fc={fc / 1e6:.2f} MPa")
+        if fit_gf:
+            t = fracture.separation_test(sample, params, loading)
+            record.update(ft=t["peak"], fracture_energy=t["fracture_energy"],
+                          seconds=c["seconds"] + t["seconds"])
+            line += (f" ft={t['peak'] / 1e6:.2f} MPa Gf={t['fracture_energy']:.1f} J/m²"
+                     f"{'' if t['separated'] else ' (NOT separated)'}")
+        iterations.append(record)
+        log(f"{line} ({record['seconds']:.1f} s)")
         mu = target.young / c["E"]
         lam = target.compressive_strength / (mu * fc)
         nu_ok = target.poisson is None or abs(c["nu"] - target.poisson) <= nu_tol
-        converged = abs(mu - 1) <= tol and abs(mu * lam - 1) <= tol and nu_ok
-        if converged:
+        gf_ok = not fit_gf or abs(t["fracture_energy"] / target.fracture_energy - 1) <= gf_tol
+        strength_ok = abs(mu - 1) <= tol and abs(mu * lam - 1) <= tol and nu_ok
+        converged = strength_ok and gf_ok
+        if converged or (strength_ok and gf_out_of_reach):
             break
         if it == max_iter:
             log(f"not converged after {max_iter} iterations")
             break
+        ductility = params.relDuctility
+        if fit_gf and not gf_out_of_reach:
+            history = [(i["params"]["relDuctility"], i["fracture_energy"]
+                        / (i["params"]["young"] * i["params"]["epsCrackOnset"] ** 2))
+                       for i in iterations]
+            ductility = fracture.next_ductility(history, target.fracture_energy / (
+                params.young * mu * (params.epsCrackOnset * lam) ** 2))
+            if ductility is None:     # keep the bound, go on fitting E and fc
+                gf_out_of_reach, ductility = True, params.relDuctility
+                log(f"fracture energy {target.fracture_energy:.4g} J/m² out of reach by "
+                    f"relDuctility (at its bound {params.relDuctility:.4g}): fitting E, fc only")
         if not nu_ok:
             history = [(i["params"]["poisson"], i["nu"]) for i in iterations]
             params = replace(params, poisson=_next_link_ratio(history, target.poisson))
         params = replace(params, young=params.young * mu, sigmaT=params.sigmaT * mu * lam,
-                         epsCrackOnset=params.epsCrackOnset * lam)
-    t = uniaxial_test(sample, params, "tension", loading)
+                         epsCrackOnset=params.epsCrackOnset * lam, relDuctility=ductility)
+    if not fit_gf:
+        t = uniaxial_test(sample, params, "tension", loading)
     return dict(params=asdict(params), compression=c, tension=t, iterations=iterations,
                 converged=converged)
 
 
 def summary(compression, tension):
-    """The macroscopic values of a compression and a tension test."""
+    """The macroscopic values of a compression and a tension (or separation) test."""
     return dict(E=compression["E"], nu=compression["nu"], fc=-compression["peak"],
-                ft=tension["peak"], E_tension=tension["E"], E_ends=compression["E_ends"])
+                ft=tension["peak"], E_tension=tension.get("E"), E_ends=compression["E_ends"],
+                fracture_energy=tension.get("fracture_energy"))

@@ -19,12 +19,17 @@ class ConcreteParams:
     epsCrackOnset: float = 1e-4
     relDuctility: float = 30.0
     density: float = 2400.0                   # BULK density (kg/m³) of the concrete
+    # ξ: the shear strain's weight in the damage's equivalent strain √(⟨εN⟩² + ξ εT²); with 0
+    # (YADE's default) a link slides at its cohesion for ever and never breaks in shear
+    equivStrainShearContrib: float = 0.0
 
     def __post_init__(self):
         for name, value in asdict(self).items():
-            if not (isinstance(value, (int, float)) and value > 0 and math.isfinite(value)):
-                raise ValueError(f"concrete parameter {name} must be a positive number, "
-                                 f"got {value!r}")
+            low_ok = value >= 0 if name == "equivStrainShearContrib" else value > 0
+            if not (isinstance(value, (int, float)) and low_ok and math.isfinite(value)):
+                raise ValueError(f"concrete parameter {name} must be a "
+                                 f"{'non-negative' if name == 'equivStrainShearContrib' else 'positive'}"
+                                 f" number, got {value!r}")
         if self.frictionAngle >= math.pi / 2:
             raise ValueError(f"concrete frictionAngle must be below pi/2 rad, got "
                              f"{self.frictionAngle!r}")

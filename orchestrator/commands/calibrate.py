@@ -1,11 +1,12 @@
-"""`calibrate`: uniaxial compression and tension tests of a CPM packing; fit of the CPM
-micro-parameters to target E, fc (and ν)."""
+"""`calibrate`: uniaxial compression and tension tests of a CPM packing, a tension test to full
+separation for the fracture energy; fit of the CPM micro-parameters to target E, fc, Gf
+(and ν)."""
 from cases.slab import SCALES
 from orchestrator.commands._options import add_out, add_threads
 
 NAME = "calibrate"
-HELP = ("uniaxial tests of a CPM packing (E, ν, fc, ft); fit CPM micro-parameters to target "
-        "--young, --fc (--poisson)")
+HELP = ("uniaxial tests of a CPM packing (E, ν, fc, ft, Gf); fit CPM micro-parameters to "
+        "target --young, --fc, --gf (--poisson)")
 
 
 def configure(p):
@@ -15,6 +16,11 @@ def configure(p):
     p.add_argument("--poisson", type=float, default=None,
                    help="target ν (default: keep CpmMat.poisson and report ν)")
     p.add_argument("--density", type=float, default=2400.0, help="bulk density (kg/m³)")
+    p.add_argument("--gf", type=float, default=None,
+                   help="target fracture energy (J/m², default fib Model Code 2010: "
+                        "73 fc^0.18 with fc in MPa)")
+    p.add_argument("--no-gf", action="store_true",
+                   help="keep relDuctility: no separation test, ft from a tension test")
     size = p.add_mutually_exclusive_group()
     size.add_argument("--scale", choices=tuple(SCALES), default="small",
                       help="the slab's sphere radius of this scale (default small)")
@@ -30,10 +36,17 @@ def configure(p):
     p.add_argument("--eps-crack-onset", type=float, default=None,
                    help="initial CpmMat.epsCrackOnset")
     p.add_argument("--cpm-poisson", type=float, default=None, help="initial CpmMat.poisson")
+    p.add_argument("--rel-ductility", type=float, default=None,
+                   help="initial CpmMat.relDuctility")
+    p.add_argument("--shear-contrib", type=float, default=None,
+                   help="CpmMat.equivStrainShearContrib ξ, kept by the fit (default 0: links "
+                        "never break in shear)")
     p.add_argument("--strain-rate", type=float, default=0.05,
                    help="compression strain rate (1/s, default 0.05; tension: 1/10 of it)")
     p.add_argument("--tol", type=float, default=0.02,
                    help="relative tolerance on E and fc of the fit (default 0.02)")
+    p.add_argument("--gf-tol", type=float, default=0.05,
+                   help="relative tolerance on Gf of the fit (default 0.05)")
     p.add_argument("--max-iter", type=int, default=6, help="fit iterations (default 6)")
     p.add_argument("--seed", type=int, default=1, help="packing seed")
     add_threads(p)
@@ -45,6 +58,7 @@ def run(args):
     from common.files import write_json
     from orchestrator.run.folder import prepare_out
     from yade_side import calibration as cal
+    from yade_side.fracture import mc2010_fracture_energy
     from yade_side.material import ConcreteParams
 
     # every input is checked before YADE is imported and the results folder made
@@ -52,13 +66,22 @@ def run(args):
         raise ValueError(f"--tol must be in (0, 1), got {args.tol!r}")
     if args.max_iter < 1:
         raise ValueError(f"--max-iter must be >= 1, got {args.max_iter!r}")
+    if not 0 < args.gf_tol < 1:
+        raise ValueError(f"--gf-tol must be in (0, 1), got {args.gf_tol!r}")
+    if args.no_gf and args.gf is not None:
+        raise ValueError(f"--gf {args.gf!r} and --no-gf exclude each other")
     radius = args.radius if args.radius is not None else SCALES[args.scale].radius
     size = cal.check_specimen(radius, args.size)
+    gf = None if args.no_gf else (args.gf if args.gf is not None
+                                  else mc2010_fracture_energy(args.fc))
     target = cal.Target(young=args.young, compressive_strength=args.fc, poisson=args.poisson,
-                        density=args.density)
+                        density=args.density, fracture_energy=gf)
     start = {k: v for k, v in dict(young=args.cpm_young, sigmaT=args.sigma_t,
                                    epsCrackOnset=args.eps_crack_onset,
-                                   poisson=args.cpm_poisson).items() if v is not None}
+                                   poisson=args.cpm_poisson,
+                                   relDuctility=args.rel_ductility,
+                                   equivStrainShearContrib=args.shear_contrib).items()
+             if v is not None}
     params = replace(ConcreteParams(), density=args.density, **start)
     loading = cal.Loading(strain_rate=args.strain_rate, tension_rate=0.1 * args.strain_rate)
     out = prepare_out(args.out, args.force)
@@ -69,15 +92,19 @@ def run(args):
           f"{len(sample.radii)} spheres, packing fraction {sample.fraction:.3f}")
     if args.measure_only:
         c = cal.uniaxial_test(sample, params, "compression", loading)
-        t = cal.uniaxial_test(sample, params, "tension", loading)
+        if gf is None:
+            t = cal.uniaxial_test(sample, params, "tension", loading)
+        else:
+            from yade_side.fracture import separation_test
+            t = separation_test(sample, params, loading)
         result = dict(params=asdict(params), compression=c, tension=t, iterations=[],
                       converged=None)
     else:
         result = cal.calibrate(sample, target, params, loading, tol=args.tol,
-                               max_iter=args.max_iter)
+                               gf_tol=args.gf_tol, max_iter=args.max_iter)
     c, t = result["compression"], result["tension"]
     macro = cal.summary(c, t)
-    curves = {m: {k: r[k] for k in ("strain", "stress", "strain_mid", "lateral_mid")}
+    curves = {m: {k: r[k] for k in ("strain", "stress", "strain_mid", "lateral_mid") if k in r}
               for m, r in (("compression", c), ("tension", t))}
     runs = {m: {k: r[k] for k in ("steps", "dt", "seconds")} for m, r in (("compression", c),
                                                                          ("tension", t))}
@@ -86,17 +113,30 @@ def run(args):
         packing_fraction=sample.fraction, target=asdict(target), loading=asdict(loading),
         params=result["params"], measured=macro, iterations=result["iterations"],
         converged=result["converged"], runs=runs,
-        curves=curves))
+        fracture_energy_J_m2=macro["fracture_energy"], tensile_strength_Pa=macro["ft"],
+        separation=fracture_record(t), curves=curves))
     plot_curves(out / "stress_strain.png", c, t, macro, radius)
     p = result["params"]
     print(f"CpmMat: young={p['young']:.4g} poisson={p['poisson']:.4g} sigmaT={p['sigmaT']:.4g} "
           f"epsCrackOnset={p['epsCrackOnset']:.4g} relDuctility={p['relDuctility']:.4g} "
+          f"equivStrainShearContrib={p['equivStrainShearContrib']:.4g} "
           f"frictionAngle={p['frictionAngle']:.4g} density={p['density']:.4g} (bulk)")
+    gf_text = ("" if macro["fracture_energy"] is None
+               else f" Gf={macro['fracture_energy']:.1f} J/m²")
     print(f"measured: E={macro['E'] / 1e9:.2f} GPa nu={macro['nu']:.3f} "
-          f"fc={macro['fc'] / 1e6:.2f} MPa ft={macro['ft'] / 1e6:.2f} MPa "
+          f"fc={macro['fc'] / 1e6:.2f} MPa ft={macro['ft'] / 1e6:.2f} MPa{gf_text} "
           f"({len(result['iterations'])} fit iterations"
           f"{', NOT converged' if result['converged'] is False else ''}); results in {out}")
     return 0
+
+
+def fracture_record(test):
+    """The energy balance of a separation test (None for a tension test to 70 % of the peak)."""
+    if "fracture_energy" not in test:
+        return None
+    keys = ("work", "elastic_end", "kinetic", "damping", "area", "work_of_fracture",
+            "strain_peak", "separated")
+    return {k: test[k] for k in keys}
 
 
 def plot_curves(path, compression, tension, macro, radius):
@@ -104,17 +144,20 @@ def plot_curves(path, compression, tension, macro, radius):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from common.files import save_figure
-    fig, ax = plt.subplots(figsize=(6, 4.5))
-    for run, colour in ((compression, "C0"), (tension, "C3")):
-        ax.plot(-1e3 * run["strain"], -1e-6 * run["stress"], colour, label=f"{run['mode']} (ends)")
-        ax.plot(-1e3 * run["strain_mid"], -1e-6 * run["stress"], colour, ls="--",
-                label=f"{run['mode']} (middle third)")
-    ax.axhline(0, color="k", lw=0.5)
-    ax.axvline(0, color="k", lw=0.5)
-    ax.set_xlabel("axial shortening strain (‰)")
-    ax.set_ylabel("compressive stress (MPa)")
-    ax.set_title(f"R = {radius} m: E = {macro['E'] / 1e9:.1f} GPa, ν = {macro['nu']:.2f}, "
-                 f"fc = {macro['fc'] / 1e6:.1f} MPa, ft = {macro['ft'] / 1e6:.2f} MPa", fontsize=9)
-    ax.legend(fontsize=8)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.5))
+    for ax, run, colour, sign in ((axes[0], compression, "C0", -1), (axes[1], tension, "C3", 1)):
+        ax.plot(sign * 1e3 * run["strain"], sign * 1e-6 * run["stress"], colour,
+                label=f"{run['mode']} (ends)" if "mode" in run else "separation (ends)")
+        if "strain_mid" in run:
+            ax.plot(sign * 1e3 * run["strain_mid"], sign * 1e-6 * run["stress"], colour,
+                    ls="--", label=f"{run['mode']} (middle third)")
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_xlabel(f"axial {'shortening' if sign < 0 else 'extension'} strain (‰)")
+        ax.set_ylabel(f"{'compressive' if sign < 0 else 'tensile'} stress (MPa)")
+        ax.legend(fontsize=8)
+    gf = macro["fracture_energy"]
+    fig.suptitle(f"R = {radius} m: E = {macro['E'] / 1e9:.1f} GPa, ν = {macro['nu']:.2f}, "
+                 f"fc = {macro['fc'] / 1e6:.1f} MPa, ft = {macro['ft'] / 1e6:.2f} MPa"
+                 + ("" if gf is None else f", Gf = {gf:.0f} J/m²"), fontsize=9)
     fig.tight_layout()
     save_figure(fig, path)
