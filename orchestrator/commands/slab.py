@@ -36,6 +36,9 @@ def run(args):
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
         if model != "coupled":
             raise ValueError(f"--model {model} has no FE part: run it without mpirun")
+        if spec.zone == "auto":
+            raise ValueError("--zone auto rebuilds the FE model at each attempt: run it "
+                             "without mpirun")
         if comm.rank > 0:
             from fenicsx_side.distributed import serve
             grid = slab.slab_grid(spec)
@@ -46,6 +49,8 @@ def run(args):
     import_yade(args.threads)
     out = Path(args.resume) if args.resume else prepare_out(args.out, args.force)
     s = slab.run(spec, model, out, quiet=args.quiet, resume=bool(args.resume))
+    if s.get("zone_outcome") == "limit" and "n_spheres" not in s:
+        return 1                # the one line saying why was printed
     print(f"{model} slab ({spec.scale}): {s['n_spheres']} spheres, {s['n_fe_nodes']} FE "
           f"nodes, {s['n_bridging_spheres']} bridging spheres, {s['steps']} steps of "
           f"{s['dt']:.3g} s, {s['s_per_step'] * 1e3:.2f} ms/step; results in {out}")
