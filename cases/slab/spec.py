@@ -134,6 +134,9 @@ class SlabSpec:
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
+        if self.zone == "auto":
+            from cases.slab.zone import check
+            check(self)
         if self.relaxation == "auto":
             from cases.slab.geometry import slab_grid
             from orchestrator.coupling.relaxation import auto_relaxation

@@ -24,9 +24,9 @@ def zone_grid(base, mask):
 def _centred(spec, side, full_width, name):
     """Mask of the centred zone slab_grid makes of a DE zone of `side` m."""
     try:
-        g = slab_grid(replace(spec, de_zone=side, full_width=full_width))
+        g = slab_grid(replace(spec, de_zone=side, full_width=full_width, zone="box"))
     except ValueError as e:
-        raise ValueError(f"slab: {name} = {side!r} m: {e}") from None
+        raise ValueError(f"slab: {name} = {side!r} m: {str(e).removeprefix('slab: ')}") from None
     return cell_grid(g).box_mask(g.hole_lo, g.hole_hi)
 
 

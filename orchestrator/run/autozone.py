@@ -140,7 +140,8 @@ def check_zones(grid, start, limit):
 
 def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=print):
     """Attempts from the zone `start` (a mask of `grid`) until one runs with no trip, or the
-    zone would pass `limit`; returns the Outcome."""
+    zone would pass `limit` (a flagged cell outside it, or a zone that fills it and still
+    trips); returns the Outcome."""
     check_zones(grid, start, limit)
     zone, zones, attempts, t_all = start.copy(), [], [], perf_counter()
     cost = []                                 # (YADE seconds, sphere steps) of each attempt
@@ -169,8 +170,9 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
         if tripped is None:
             status = "clean"
             break
-        grown = zone | grid.dilate(tripped.cells, levels.margin)
-        if (grown & ~limit).any():
+        # flagged cells beyond the limit end the search; the margin stops at the limit
+        grown = (zone | grid.dilate(tripped.cells, levels.margin)) & limit
+        if (tripped.cells & ~limit).any() or not (grown & ~zone).any():
             status = "limit"
             break
         zone = grown
