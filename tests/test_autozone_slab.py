@@ -57,9 +57,10 @@ def test_auto_equals_the_fixed_run_with_its_final_zone(grown, tmp_path):
 
 
 def test_the_limit_ends_the_search_and_the_fallback_runs_the_full_model(tmp_path, capsys):
-    """Every FE cell trips at 0.001 ft, beyond any limit: one line, exit code 1; with
-    --fallback full the full model runs in the folder instead."""
-    low = ["--trip-stress", "0.001", "--zone-limit", "0.5"]
+    """Checked once at step 100, FE cells beyond the limit (a strip of the start zone's 3
+    columns) pass 0.001 ft: one line, exit code 1; with --fallback full the full model runs
+    in the folder instead."""
+    low = ["--trip-stress", "0.001", "--stress-every", "100", "--zone-limit", "0.5"]
     assert main(AUTO + low + ["--out", str(tmp_path / "limit")]) == 1
     line = capsys.readouterr().out.strip().splitlines()[-1]
     assert line.startswith("coupling cannot pay for this impact: after 1 attempts")
