@@ -144,3 +144,17 @@ def test_slab_limit_default_leaves_band_and_a_cell_before_the_supports():
     assert limit.shape == (15, 12)
     assert np.flatnonzero(limit.any(axis=1)).tolist() == list(range(4, 11)) and limit[4:11].all()
     assert np.array_equal(np.argwhere(start.any(axis=1)).ravel(), np.arange(5, 10)) and start[5:10].all()
+
+
+def test_case_files_take_zone_auto_and_its_table():
+    """`[slab] zone = "auto"` and the `[zone]` table reach SlabSpec; a bad level is refused
+    with its one line among the case file's problems."""
+    from pathlib import Path
+    from cases.kinds import load_case
+    from cases.slab.casefile import spec as slab_spec
+    slab_toml = Path(__file__).resolve().parents[1] / "cases" / "slab.toml"
+    spec = slab_spec(load_case(slab_toml, ["slab.zone=auto", "zone.start=0.3",
+                                           "zone.trip_omega=0.2", "zone.fallback=full"]))
+    assert (spec.zone, spec.zone_start, spec.trip_omega, spec.fallback) == ("auto", 0.3, 0.2, "full")
+    with pytest.raises(ValueError, match=r"\n  - zone.trip_stress = 200.0: must be in \(0, 100\]"):
+        load_case(slab_toml, ["slab.zone=auto", "zone.trip_stress=200.0"])
