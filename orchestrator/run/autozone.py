@@ -182,28 +182,36 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
 
 
 def plot_zones(path, grid, outcome, limit, title):
-    """Plan of the structure (axes 0, 1 of the grid) with the attempt at which each cell
-    joined the zone, and the limit's outline."""
+    """Plan of the structure (a grid of two axes) coloured by the attempt at which each cell
+    joined the zone, with the limit's outline."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
     from common.files import save_figure
     joined = np.full(grid.shape, np.nan)
     for k, z in reversed(list(enumerate(outcome.zones))):
         joined[z] = k + 1
-    x0, y0 = grid.p0[grid.axes[0]], grid.p0[grid.axes[1]] if len(grid.axes) > 1 else 0
-    x1, y1 = grid.p1[grid.axes[0]], grid.p1[grid.axes[1]] if len(grid.axes) > 1 else 1
+    (x0, y0), (x1, y1) = grid.p0[grid.axes], grid.p1[grid.axes]
     fig, ax = plt.subplots(figsize=(6.5, 5))
-    img = ax.imshow(joined.T if joined.ndim == 2 else joined[:, None].T, origin="lower",
-                    extent=(x0, x1, y0, y1), cmap="viridis", vmin=1,
+    img = ax.imshow(joined.T, origin="lower", extent=(x0, x1, y0, y1), cmap="viridis", vmin=1,
                     vmax=max(1, len(outcome.zones)), interpolation="nearest")
-    lim = limit.T if limit.ndim == 2 else limit[:, None].T
-    dx, dy = (x1 - x0) / lim.shape[1], (y1 - y0) / lim.shape[0]
-    ax.contour(np.linspace(x0 + dx / 2, x1 - dx / 2, lim.shape[1]),
-               np.linspace(y0 + dy / 2, y1 - dy / 2, lim.shape[0]), lim.astype(float),
-               levels=[0.5], colors="red", linewidths=1)
+    ax.add_collection(LineCollection(_outline(limit, (x0, y0), grid.size[grid.axes]),
+                                     colors="red", linewidths=1.5))
     ax.set(xlabel="x (m)", ylabel="y (m)", aspect="equal",
            title=f"{title}: zone by attempt ({outcome.status}; red: limit)")
     fig.colorbar(img, ax=ax, shrink=0.8, label="attempt the cell joined")
     fig.tight_layout()
     save_figure(fig, path)
+
+
+def _outline(mask, origin, size):
+    """Segments of the cell edges between the cells of `mask` and the others (or the
+    grid's border)."""
+    m = np.pad(np.asarray(mask, bool), 1)
+    (x0, y0), (dx, dy) = origin, size
+    i, j = np.nonzero(m[1:, 1:-1] != m[:-1, 1:-1])       # edge x = x0 + i dx along cell j
+    segs = [((x0 + a * dx, y0 + b * dy), (x0 + a * dx, y0 + (b + 1) * dy)) for a, b in zip(i, j)]
+    i, j = np.nonzero(m[1:-1, 1:] != m[1:-1, :-1])       # edge y = y0 + j dy along cell i
+    segs += [((x0 + a * dx, y0 + b * dy), (x0 + (a + 1) * dx, y0 + b * dy)) for a, b in zip(i, j)]
+    return segs
