@@ -157,7 +157,8 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
         cost.append((model.seconds["yade"], watch.steps * model.sphere_count()))
         zones.append(zone.copy())
         attempts.append({
-            "cells": int(zone.sum()), "spheres": int(model.sphere_count()),
+            "cells": int(zone.sum()), "zone_cells": np.argwhere(zone).tolist(),
+            "spheres": int(model.sphere_count()),
             "fe_nodes": 0 if model.fe is None else len(model.fe.nodes),
             "bridging_spheres": int(len(model.bridge_index)), "steps_run": watch.steps,
             "tripped_step": None if tripped is None else tripped.step,
@@ -200,7 +201,8 @@ def plot_zones(path, grid, outcome, limit, title):
                                      colors="red", linewidths=1.5))
     ax.set(xlabel="x (m)", ylabel="y (m)", aspect="equal",
            title=f"{title}: zone by attempt ({outcome.status}; red: limit)")
-    fig.colorbar(img, ax=ax, shrink=0.8, label="attempt the cell joined")
+    fig.colorbar(img, ax=ax, shrink=0.8, label="attempt the cell joined",
+                 ticks=np.arange(1, len(outcome.zones) + 1))
     fig.tight_layout()
     save_figure(fig, path)
 
