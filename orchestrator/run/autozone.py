@@ -13,6 +13,8 @@ from time import perf_counter
 
 import numpy as np
 
+from orchestrator.run.restart import Stopped
+
 
 def stress_level(v):
     """Check of a stress trip level (× ft): None, or what is expected."""
@@ -154,6 +156,9 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
             summary = run(model, len(attempts))
         except Tripped as t:
             tripped = t
+        except Stopped:                 # SIGTERM: attempts restart from t = 0, no resume
+            raise Stopped(f"attempt {len(attempts) + 1} of the zone search was stopped; an "
+                          f"auto-zone run does not resume: run it again") from None
         cost.append((model.seconds["yade"], watch.steps * model.sphere_count()))
         zones.append(zone.copy())
         attempts.append({
