@@ -181,6 +181,34 @@ def test_damage_counts_broken_over_initial_links():
     assert link_damage(lambda p: p[:, 0] > 0.045).size == 0
 
 
+def test_worst_link_reads_each_spheres_most_damaged_link():
+    """The chain of 4, its last sphere pulled by 5e-6 m (κ = 2.5e-4 on the 2e-2 m link, ε0 =
+    1e-4): CPM's ω = 1 − (ε0/κ) exp(−(κ − ε0)/(30 ε0)) = 0.6195 on that link, read by
+    worst_link for its two spheres; then pulled past failure, the deleted link counts as 1."""
+    ids = cluster(n=4)
+    cpm_engines()
+    create_cohesive_links()
+    dmg = LinkDamage(ids)
+    dmg.record_initial()
+    for b in O.bodies:
+        b.state.blockedDOFs = "xyzXYZ"
+    last = O.bodies[int(ids[-1])]
+    last.state.vel = (10.0, 0, 0)
+    O.dt = 1e-7
+    for _ in range(5):
+        O.step()
+    last.state.vel = (0.0, 0, 0)
+    O.step()
+    omega = O.interactions[int(ids[2]), int(ids[3])].phys.omega
+    kappa = (last.state.pos[0] - last.state.refPos[0]) / 0.02
+    assert omega == pytest.approx(1 - (1e-4 / kappa) * np.exp(-(kappa - 1e-4) / 3e-3), rel=1e-9)
+    assert dmg.worst_link().tolist() == [0.0, 0.0, omega, omega]
+    last.state.vel = (10.0, 0, 0)
+    for _ in range(200):
+        O.step()
+    assert dmg.worst_link().tolist() == [0.0, 0.0, 1.0, 1.0]
+
+
 def test_links_kept_elastic_never_damage():
     """The same pull with the pulled link (midpoint x = 5 R) kept elastic: no link breaks and
     that link's damage stays exactly 0; the other links are left as they were."""

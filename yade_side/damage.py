@@ -55,6 +55,24 @@ class LinkDamage:
         return np.divide(broken, self.initial, out=np.zeros(len(self.ids)),
                          where=self.initial > 0)
 
+    def worst_link(self):
+        """Per sphere, the largest damage ω of its initial links, a broken (deleted) one
+        counting as 1; one walk over O.interactions."""
+        pairs, omega = [], []
+        for i in self._O.interactions:
+            phys = i.phys
+            if phys is not None and phys.isCohesive:
+                pairs.append((i.id1, i.id2))
+                omega.append(phys.omega)
+        pairs, omega = np.array(pairs, int).reshape(-1, 2), np.array(omega, float)
+        worst = np.zeros(len(self.ids))
+        for column in pairs.T:
+            inside = column < len(self._index)
+            local = self._index[column[inside]]
+            np.maximum.at(worst, local[local >= 0], omega[inside][local >= 0])
+        worst[self._count(pairs[omega < BROKEN_OMEGA]) < self.initial] = 1.0
+        return worst
+
     def broken_links(self):
         """Total broken links (each counted once)."""
         return int(len(self._links) - len(self._cohesive_links(require_intact=True)))

@@ -6,6 +6,7 @@ import numpy as np
 
 from cases.slab.spec import SLAB
 from orchestrator.coupling.bridging import BoxZone, Bridging
+from orchestrator.coupling.cells import CellGrid
 
 
 @dataclass
@@ -16,6 +17,8 @@ class Grid:
     hole_lo: np.ndarray
     hole_hi: np.ndarray
     axes: tuple = (0, 1)  # the axes along which the DE zone is bounded
+    cells: np.ndarray = None  # a DE zone of in-plane grid cells (nx, ny) mask (hole_*: its
+                              # bounding box), else the box [hole_lo, hole_hi]
 
     @property
     def width(self):
@@ -103,5 +106,12 @@ def sensor_points(spec, grid):
     }
 
 
+def cell_grid(grid):
+    """The slab's in-plane grid of FE cells, on which DE zones of cells are masks."""
+    return CellGrid((0.0, 0.0, 0.0), SLAB, grid.n, axes=(0, 1))
+
+
 def slab_bridging(spec, grid):
-    return Bridging(BoxZone(grid.hole_lo, grid.hole_hi, grid.axes), spec.layers, grid.h)
+    zone = (BoxZone(grid.hole_lo, grid.hole_hi, grid.axes) if grid.cells is None
+            else cell_grid(grid).zone(grid.cells))
+    return Bridging(zone, spec.layers, grid.h)

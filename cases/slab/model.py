@@ -34,9 +34,14 @@ def fe_model(spec, grid, weight):
     """The coupled model's FE part: the slab less the DE zone, its x = 0 and x = 2.5 faces held
     in z (simple supports); `weight`: α inside stiffness and mass (or None). Collective under
     MPI: every rank builds it."""
-    from fenicsx_side.mesh import box_mesh_with_hole
     from fenicsx_side.model import ElasticModel, face
-    msh = box_mesh_with_hole((0, 0, 0), SLAB, grid.n, grid.hole_lo, grid.hole_hi)
+    if grid.cells is None:
+        from fenicsx_side.mesh import box_mesh_with_hole
+        msh = box_mesh_with_hole((0, 0, 0), SLAB, grid.n, grid.hole_lo, grid.hole_hi)
+    else:
+        from fenicsx_side.cells import box_mesh_without_cells
+        removed = np.repeat(grid.cells[:, :, None], grid.n[2], axis=2)
+        msh = box_mesh_without_cells((0, 0, 0), SLAB, grid.n, removed)
     supports = [(face(0, 0.0), (2,)), (face(0, SLAB[0]), (2,))]
     return ElasticModel(msh, spec.young, spec.poisson, spec.density, supports, weight=weight)
 
@@ -94,14 +99,15 @@ class SlabScene:
         return False
 
 
-def description(spec, model):
-    """The builder's description of the slab's `model` (full or coupled)."""
+def description(spec, model, grid=None):
+    """The builder's description of the slab's `model` (full or coupled), with the DE zone
+    of `grid` (default: the spec's box, slab_grid)."""
     if model not in MODELS:
         raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
     if spec.elastic_outside and model != "full":
         raise ValueError("elastic_outside applies to the full model only (the coupled "
                          "model has FE outside its DE zone)")
-    grid = slab_grid(spec)
+    grid = slab_grid(spec) if grid is None else grid
     bridging = slab_bridging(spec, grid)
     fe = None
     if model == "coupled":
@@ -115,8 +121,9 @@ def description(spec, model):
 class SlabModel(Model):
     """The slab's full or coupled model, built, with its sensors."""
 
-    def __init__(self, spec, model):
-        d, self.grid = description(spec, model)
+    def __init__(self, spec, model, grid=None):
+        t0 = perf_counter()
+        d, self.grid = description(spec, model, grid)
         super().__init__(assemble(d))
         scene = d.scene
         self.spec, self.model, self.scene = spec, model, scene
@@ -127,6 +134,7 @@ class SlabModel(Model):
         self.initial_links = int(self.damage.initial.sum())
         self.energy_bodies = [self.slab, self.impactor]
         self._sensors()
+        self.build_s = perf_counter() - t0
 
     def _sensors(self):
         """Spheres nearest the sensor points, and the FE node nearest the bridging sensor (in
@@ -152,19 +160,32 @@ def run(spec, model, out, quiet=False, resume=False, start=None, inputs=None):
     """Run one model to spec.steps and write its results folder `out`, or carry on from its
     checkpoint (resume). `start()`, if given, makes the folder once the model is built (and
     returns it); `inputs`: what the results depend on (orchestrator.run.inputs), a resumed
-    run must have the same."""
-    from orchestrator.run.inputs import spec_inputs
-    from orchestrator.run.loop import Schedule, run as run_loop
-    t_build = perf_counter()
+    run must have the same. A coupled model with zone "auto" finds its zone
+    (cases.slab.zone)."""
+    if spec.zone == "auto" and model == "coupled":
+        if resume:
+            raise ValueError("--resume: an auto-zone run restarts its attempts from t = 0; "
+                             "run it again instead")
+        from cases.slab.zone import run_auto
+        return run_auto(spec, start() if start is not None else out, quiet)
     m = SlabModel(spec, model)
-    build_s = perf_counter() - t_build
     if start is not None:
         out = start()
+    return run_built(m, out, quiet, resume, inputs)
+
+
+def run_built(m, out, quiet=False, resume=False, inputs=None):
+    """Run the built slab model `m` to its spec.steps into the folder `out`."""
+    from orchestrator.run.inputs import spec_inputs
+    from orchestrator.run.loop import Schedule, run as run_loop
+    spec, model = m.spec, m.model
     impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
     info = {"model": model, "seed": spec.seed, "spec": asdict(spec),
             "n_slab_spheres": len(m.slab_ids),
-            "build_s": build_s, "impact_energy_J": impact_energy,
+            "build_s": m.build_s, "impact_energy_J": impact_energy,
             "links_kept_elastic": m.elastic_links}
+    if m.grid.cells is not None:
+        info["zone_cells"] = np.argwhere(m.grid.cells).tolist()
     schedule = Schedule(spec.steps, spec.sample_every, spec.check_every, spec.output_every,
                         spec.checkpoint_every)
     return run_loop(m, schedule, out, f"slab {model} ({spec.scale})", impact_energy,

@@ -8,6 +8,7 @@ from orchestrator.casefile import (boolean, check_spec, choice, integer, non_neg
                                    safety_range, spec_key as key, step_count)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
+from orchestrator.run.autozone import omega_level, stress_level
 
 SLAB = (2.5, 2.0, 0.28)
 
@@ -71,6 +72,31 @@ class SlabSpec:
     elastic_outside: bool = key(False, boolean,
                                 help="full model: links outside the coupled model's DE zone "
                                      "never damage, as the coupled model assumes")
+    zone: str = key("box", choice("box", "auto"),
+                    help="DE zone: 'box' (de_zone, full_width), or 'auto': grown by the "
+                         "coupled run's own checks (docs/auto-zone.md)")
+    zone_start: float = key(None, number, positive, section="zone", name="start",
+                            help="auto: side (m) of a square start zone under the impact, "
+                                 "rounded to the FE grid; default the box zone")
+    zone_limit: float = key(None, number, positive, section="zone", name="limit",
+                            help="auto: length (m) along x of the centred full-width strip "
+                                 "the zone may fill; default the slab less the supports and "
+                                 "the band")
+    fallback: str = key("none", choice("none", "full"), section="zone",
+                        help="auto: when the zone would pass its limit, stop ('none') or run "
+                             "the full model ('full')")
+    trip_stress: float = key(1.0, number, stress_level, section="zone",
+                             help="auto: an FE cell with σ1 >= this × ft trips (the FE cannot "
+                                  "crack)")
+    trip_omega: float = key(0.1, number, omega_level, section="zone",
+                            help="auto: a bridging link with damage >= this trips (the "
+                                 "coupling assumes an elastic band)")
+    stress_every: int = key(10, integer, positive, section="zone",
+                            help="auto: steps between FE stress checks")
+    links_every: int = key(400, integer, positive, section="zone",
+                           help="auto: steps between bridging link checks")
+    zone_margin: int = key(1, integer, positive, section="zone", name="margin",
+                           help="auto: cells added around the flagged ones")
     layers: int = key(3, integer, positive, section="coupling", help="bridging layers")
     variant: str = key("diagonal", choice(*VARIANTS), section="coupling",
                        help="multiplier solver")
@@ -110,6 +136,9 @@ class SlabSpec:
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
+        if self.zone == "auto":
+            from cases.slab.zone import check
+            check(self)
         if self.relaxation == "auto":
             from cases.slab.geometry import slab_grid
             from orchestrator.coupling.relaxation import auto_relaxation

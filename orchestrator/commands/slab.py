@@ -58,6 +58,9 @@ def run(args):
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
         if model != "coupled":
             raise ValueError(f"--model {model} has no FE part: run it without mpirun")
+        if spec.zone == "auto":
+            raise ValueError("--zone auto rebuilds the FE model at each attempt: run it "
+                             "without mpirun")
         if comm.rank > 0:
             from fenicsx_side.distributed import serve
             grid = slab.slab_grid(spec)
@@ -71,6 +74,8 @@ def run(args):
     else:
         out, start = Path(args.out), lambda: folder.prepare_out(args.out, args.force)
     s = slab.run(spec, model, out, quiet=args.quiet, resume=bool(args.resume), start=start)
+    if s.get("zone_outcome") == "limit" and "n_spheres" not in s:
+        return 1                # the one line saying why was printed
     _report(model, spec, s, out)
     return 0
 

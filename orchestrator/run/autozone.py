@@ -1,0 +1,224 @@
+"""A DE zone the run finds for itself: the paper's two a-posteriori checks (the FE stays
+elastic, the bridging spheres stay undamaged) read during the coupled run; when one trips,
+the run stops, the zone grows over the flagged cells plus a margin, and the model is built
+again through the one builder and runs from t = 0. The last attempt is therefore exactly a
+fixed-zone run with the final zone.
+
+The case gives `build(mask) -> model` (orchestrator.builder.Model of a zone, a mask of
+orchestrator.coupling.cells.CellGrid) and `run(model, k) -> summary` (runs attempt k to its
+end); the indicators raise Tripped out of model.step.
+"""
+from dataclasses import dataclass
+from time import perf_counter
+
+import numpy as np
+
+from orchestrator.run.restart import Stopped
+
+
+def stress_level(v):
+    """Check of a stress trip level (× ft): None, or what is expected."""
+    return None if 0 < v <= 100 else "in (0, 100] (× the tensile strength)"
+
+
+def omega_level(v):
+    return None if 0 < v <= 1 else "in (0, 1] (link damage)"
+
+
+@dataclass(frozen=True)
+class TripLevels:
+    """When a coupled run stops to grow its DE zone (docs/auto-zone.md):
+    - stress: largest principal stress of an FE cell ≥ stress × ft. Default 1: the FE is
+      linear-elastic and cannot crack, so concrete beyond its tensile strength there is
+      concrete the model gets wrong;
+    - omega: a link of a bridging sphere with damage ω ≥ omega (a broken link counts as 1).
+      Default 0.1: partial damage in the band means the crack reaches where the coupling
+      assumes an elastic continuum;
+    - stress_every, links_every: steps between the two checks (their costs: ~0.03 and ~4-6
+      steps of the small coupled slab; < 2 % of a step each at these defaults);
+    - margin: cells added around the flagged ones (≥ 1, so the crack's front is inside)."""
+    stress: float = 1.0
+    omega: float = 0.1
+    stress_every: int = 10
+    links_every: int = 400
+    margin: int = 1
+
+    def __post_init__(self):
+        for name, check in (("stress", stress_level), ("omega", omega_level)):
+            complaint = check(getattr(self, name))
+            if complaint:
+                raise ValueError(f"trip_{name} must be {complaint}, got {getattr(self, name)!r}")
+        for name in ("stress_every", "links_every", "margin"):
+            value = getattr(self, name)
+            if int(value) != value or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+
+
+class Tripped(Exception):
+    """An indicator passed its level at `step`; `cells`: the mask of the flagged cells."""
+
+    def __init__(self, step, indicator, cells):
+        super().__init__(f"zone check tripped at step {step}: {indicator}")
+        self.step, self.indicator, self.cells = step, indicator, cells
+
+
+class Watch:
+    """The indicators of one coupled model, read after every `stress_every`-th and
+    `links_every`-th step of model.step (which it wraps); they only read the state."""
+
+    def __init__(self, model, grid, tensile_strength, levels):
+        self.model, self.grid, self.levels = model, grid, levels
+        self.limit = levels.stress * tensile_strength
+        fe = model.fe
+        self.fe_centres = fe.nodes[fe.cell_nodes].mean(axis=1) if fe is not None else None
+        self.band = model.bridge_index
+        self.band_pos = model.spheres.ref_pos[self.band]
+        self.steps, self.seconds = 0, 0.0
+        self.peak_stress, self.peak_omega = 0.0, 0.0
+        step = model.step
+
+        def watched():
+            step()
+            self.steps += 1
+            t0 = perf_counter()
+            try:
+                self._check(self.steps)
+            finally:
+                self.seconds += perf_counter() - t0
+        model.step = watched
+
+    def _check(self, n):
+        lv = self.levels
+        if self.fe_centres is not None and n % lv.stress_every == 0:
+            s1 = self.model.fe.stress().max_principal
+            self.peak_stress = max(self.peak_stress, float(s1.max(initial=0.0)))
+            over = s1 >= self.limit
+            if over.any():
+                raise Tripped(n, f"FE σ1 {s1.max() / 1e6:.3g} MPa ≥ {lv.stress:g} × ft in "
+                                 f"{np.count_nonzero(over)} cells",
+                              self.grid.cells_of(self.fe_centres[over]))
+        if self.band.size and n % lv.links_every == 0:
+            worst = self.model.damage.worst_link()[self.band]
+            self.peak_omega = max(self.peak_omega, float(worst.max(initial=0.0)))
+            hit = worst >= lv.omega
+            if hit.any():
+                raise Tripped(n, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} at "
+                                 f"{np.count_nonzero(hit)} spheres",
+                              self.grid.cells_of(self.band_pos[hit]))
+
+
+@dataclass
+class Outcome:
+    status: str            # "clean": a run ended with no trip; "limit": the zone would pass it
+    zone: np.ndarray       # the last zone run
+    zones: list            # the zone of every attempt
+    attempts: list         # per attempt: its figures (dicts)
+    summary: dict          # the last attempt's summary (None if it tripped)
+    wall_s: float          # every attempt, failed ones included
+    s_per_sphere_step: float   # YADE's cost per sphere and step, measured in the attempts
+
+    def record(self, grid, full_spheres, steps):
+        """What summary.json keeps of the search, with the full model's projected cost
+        (its spheres × YADE's per-sphere step cost measured here × the steps)."""
+        return {"zone_outcome": self.status,
+                "zone_attempts": self.attempts,
+                "zone_final": {"cells": np.argwhere(self.zone).tolist(),
+                               "n_cells": int(self.zone.sum()),
+                               "grid": {"p0": grid.p0.tolist(), "p1": grid.p1.tolist(),
+                                        "n": grid.n.tolist(), "axes": grid.axes}},
+                "zone_total_wall_s": self.wall_s,
+                "full_model_projected": {
+                    "spheres": int(full_spheres), "steps": int(steps),
+                    "s_per_sphere_step": self.s_per_sphere_step,
+                    "wall_s": self.s_per_sphere_step * full_spheres * steps}}
+
+
+def check_zones(grid, start, limit):
+    start, limit = grid.check(start, "start zone"), grid.check(limit, "zone limit")
+    if (start & ~limit).any():
+        raise ValueError(f"zone limit ({int(limit.sum())} cells) does not hold the start zone "
+                         f"({int(start.sum())} cells): widen the limit or shrink the start")
+
+
+def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=print):
+    """Attempts from the zone `start` (a mask of `grid`) until one runs with no trip, or the
+    zone would pass `limit` (a flagged cell outside it, or a zone that fills it and still
+    trips); returns the Outcome."""
+    check_zones(grid, start, limit)
+    zone, zones, attempts, t_all = start.copy(), [], [], perf_counter()
+    cost = []                                 # (YADE seconds, sphere steps) of each attempt
+    while True:
+        t0 = perf_counter()
+        model = build(zone)
+        watch = Watch(model, grid, tensile_strength, levels)
+        tripped, summary = None, None
+        try:
+            summary = run(model, len(attempts))
+        except Tripped as t:
+            tripped = t
+        except Stopped:                 # SIGTERM: attempts restart from t = 0, no resume
+            raise Stopped(f"attempt {len(attempts) + 1} of the zone search was stopped; an "
+                          f"auto-zone run does not resume: run it again") from None
+        cost.append((model.seconds["yade"], watch.steps * model.sphere_count()))
+        zones.append(zone.copy())
+        attempts.append({
+            "cells": int(zone.sum()), "zone_cells": np.argwhere(zone).tolist(),
+            "spheres": int(model.sphere_count()),
+            "fe_nodes": 0 if model.fe is None else len(model.fe.nodes),
+            "bridging_spheres": int(len(model.bridge_index)), "steps_run": watch.steps,
+            "tripped_step": None if tripped is None else tripped.step,
+            "indicator": None if tripped is None else tripped.indicator,
+            "peak_fe_stress_Pa": watch.peak_stress, "peak_band_omega": watch.peak_omega,
+            "indicator_s": watch.seconds, "wall_s": perf_counter() - t0})
+        log(f"zone attempt {len(attempts)}: {int(zone.sum())} cells, "
+            f"{model.sphere_count()} spheres: "
+            + ("ran clean" if tripped is None else str(tripped)))
+        if tripped is None:
+            status = "clean"
+            break
+        # flagged cells beyond the limit end the search; the margin stops at the limit
+        grown = (zone | grid.dilate(tripped.cells, levels.margin)) & limit
+        if (tripped.cells & ~limit).any() or not (grown & ~zone).any():
+            status = "limit"
+            break
+        zone = grown
+    seconds, sphere_steps = np.sum(cost, axis=0)
+    return Outcome(status, zone, zones, attempts, summary, perf_counter() - t_all,
+                   float(seconds / sphere_steps) if sphere_steps else float("nan"))
+
+
+def plot_zones(path, grid, outcome, limit, title):
+    """Plan of the structure (a grid of two axes) coloured by the attempt at which each cell
+    joined the zone, with the limit's outline."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    from common.files import save_figure
+    joined = np.full(grid.shape, np.nan)
+    for k, z in reversed(list(enumerate(outcome.zones))):
+        joined[z] = k + 1
+    (x0, y0), (x1, y1) = grid.p0[grid.axes], grid.p1[grid.axes]
+    fig, ax = plt.subplots(figsize=(6.5, 5))
+    img = ax.imshow(joined.T, origin="lower", extent=(x0, x1, y0, y1), cmap="viridis", vmin=1,
+                    vmax=max(1, len(outcome.zones)), interpolation="nearest")
+    ax.add_collection(LineCollection(_outline(limit, (x0, y0), grid.size[grid.axes]),
+                                     colors="red", linewidths=1.5))
+    ax.set(xlabel="x (m)", ylabel="y (m)", aspect="equal",
+           title=f"{title}: zone by attempt ({outcome.status}; red: limit)")
+    fig.colorbar(img, ax=ax, shrink=0.8, label="attempt the cell joined",
+                 ticks=np.arange(1, len(outcome.zones) + 1))
+    fig.tight_layout()
+    save_figure(fig, path)
+
+
+def _outline(mask, origin, size):
+    """Segments of the cell edges between the cells of `mask` and the others (or the
+    grid's border)."""
+    m = np.pad(np.asarray(mask, bool), 1)
+    (x0, y0), (dx, dy) = origin, size
+    i, j = np.nonzero(m[1:, 1:-1] != m[:-1, 1:-1])       # edge x = x0 + i dx along cell j
+    segs = [((x0 + a * dx, y0 + b * dy), (x0 + a * dx, y0 + (b + 1) * dy)) for a, b in zip(i, j)]
+    i, j = np.nonzero(m[1:-1, 1:] != m[1:-1, :-1])       # edge y = y0 + j dy along cell i
+    segs += [((x0 + a * dx, y0 + b * dy), (x0 + (a + 1) * dx, y0 + b * dy)) for a, b in zip(i, j)]
+    return segs

@@ -1,0 +1,160 @@
+"""The DE zone the run finds for itself: exact trips of the FE-stress indicator on stretched
+FE blocks, the growth and the limit of the search, and the slab's checks of its options."""
+import numpy as np
+import pytest
+
+from fenicsx_side.cells import box_mesh_without_cells
+from fenicsx_side.model import ElasticModel
+from orchestrator.coupling.cells import CellGrid
+from orchestrator.run.autozone import TripLevels, Tripped, Watch, find_zone
+
+E, NU, RHO, FT = 30e9, 0.2, 2400.0, 3e6
+P0, P1, N = (0.0, 0.0, 0.0), (1.2, 0.8, 0.2), (6, 4, 1)
+
+
+class StretchedBlock:
+    """A model of the run loop's kind without spheres: an FE block (the grid less the zone)
+    whose step n imposes the displacement n · field(nodes)."""
+
+    def __init__(self, zone, field):
+        removed = np.repeat(zone[:, :, None], N[2], axis=2)
+        self.fe = ElasticModel(box_mesh_without_cells(P0, P1, N, removed), E, NU, RHO)
+        self.bridge_index = np.empty(0, int)
+        self.spheres = type("NoSpheres", (), {"ref_pos": np.empty((0, 3))})()
+        self.seconds = {"yade": 0.0}
+        self.field = field(self.fe.nodes).ravel()
+        self.n = 0
+
+    def sphere_count(self):
+        return 0
+
+    def step(self):
+        self.n += 1
+        self.fe.u = self.n * self.field
+
+
+def uniaxial(strain):
+    """u = ε (x, −ν y, −ν z): uniaxial stress σxx = E ε, exact on Q1 cells."""
+    return lambda x: strain * np.column_stack([x[:, 0], -NU * x[:, 1], -NU * x[:, 2]])
+
+
+def steps(model, k, n=30):
+    for _ in range(n):
+        model.step()
+    return {"attempt": k}
+
+
+def test_uniaxial_stretch_trips_at_the_first_check_past_ft():
+    """σ1 = E · n · δ: with δ = 0.7e-5 and a check every 3 steps, σ1 = 2.52 MPa at step 12 and
+    3.15 MPa at step 15 (ft = 3 MPa): the trip is at step 15 and flags every FE cell."""
+    grid = CellGrid(P0, P1, N)
+    zone = np.zeros(grid.shape, bool)
+    zone[0, 0] = True
+    m = StretchedBlock(zone, uniaxial(0.7e-5))
+    watch = Watch(m, grid, FT, TripLevels(stress_every=3))
+    with pytest.raises(Tripped) as e:
+        steps(m, 0)
+    assert e.value.step == 15 and watch.steps == 15
+    assert watch.peak_stress == pytest.approx(E * 15 * 0.7e-5, rel=1e-12)
+    assert "σ1 3.15 MPa ≥ 1 × ft in 23 cells" in e.value.indicator
+    assert np.array_equal(e.value.cells, ~zone)
+    # the same stretch below the level never trips
+    m = StretchedBlock(zone, uniaxial(0.6e-5 / 30))
+    Watch(m, grid, FT, TripLevels(stress_every=3))
+    assert steps(m, 0) == {"attempt": 0}
+
+
+def test_zone_grows_over_the_flagged_cells_and_margin_then_runs_clean():
+    """u_x = ε max(x − 0.8, 0): only the cells beyond x = 0.8 (i = 4, 5) carry stress,
+    σ1 = (λ + 2μ) ε. The first attempt trips there; the zone grows by those cells and one
+    cell around (i ≥ 3); the next FE mesh has no cell beyond x = 0.8 and runs clean."""
+    grid = CellGrid(P0, P1, N)
+    start = np.zeros(grid.shape, bool)
+    start[0, 0] = True
+    kink = lambda x: np.column_stack([1e-4 * np.maximum(x[:, 0] - 0.8, 0), 0 * x[:, :2]])
+    outcome = find_zone(lambda zone: StretchedBlock(zone, kink), steps, grid, start,
+                        np.ones(grid.shape, bool), FT, TripLevels(stress_every=1),
+                        log=lambda line: None)
+    lam_2mu = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
+    expected = start.copy()
+    expected[3:] = True
+    assert outcome.status == "clean" and np.array_equal(outcome.zone, expected)
+    first, second = outcome.attempts
+    n = int(np.ceil(FT / (lam_2mu * 1e-4)))          # first step with σ1 ≥ ft
+    assert first["tripped_step"] == n and first["cells"] == 1
+    assert first["peak_fe_stress_Pa"] == pytest.approx(n * lam_2mu * 1e-4, rel=1e-12)
+    assert second["tripped_step"] is None and second["cells"] == 1 + 12
+    assert second["peak_fe_stress_Pa"] < 1e-6 * FT
+    assert outcome.summary == {"attempt": 1}
+
+
+def test_limit_stops_the_search():
+    grid = CellGrid(P0, P1, N)
+    start = np.zeros(grid.shape, bool)
+    start[0, 0] = True
+    limit = np.zeros(grid.shape, bool)
+    limit[:3] = True
+    outcome = find_zone(lambda zone: StretchedBlock(zone, uniaxial(1e-5)), steps, grid,
+                        start, limit, FT, TripLevels(), log=lambda line: None)
+    assert outcome.status == "limit" and len(outcome.attempts) == 1
+    assert outcome.summary is None and np.array_equal(outcome.zone, start)
+    record = outcome.record(grid, 1000, 30)
+    assert record["zone_final"]["n_cells"] == 1 and record["zone_outcome"] == "limit"
+    # flagged cells inside the limit, the margin stopped by it: u_x = ε max(x − 0.8, 0) flags
+    # i = 4, 5; the margin (i = 3) is outside the limit {i = 0} ∪ {i ≥ 4}
+    limit = np.zeros(grid.shape, bool)
+    limit[0] = limit[4:] = True
+    kink = lambda x: np.column_stack([1e-4 * np.maximum(x[:, 0] - 0.8, 0), 0 * x[:, :2]])
+    outcome = find_zone(lambda zone: StretchedBlock(zone, kink), steps, grid, start, limit, FT,
+                        TripLevels(), log=lambda line: None)
+    expected = start.copy()
+    expected[4:] = True
+    assert outcome.status == "clean" and np.array_equal(outcome.zone, expected)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(stress=0.0), r"trip_stress must be in \(0, 100\]"),
+    (dict(omega=1.5), r"trip_omega must be in \(0, 1\]"),
+    (dict(stress_every=0), "stress_every must be an integer >= 1"),
+])
+def test_bad_trip_levels(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        TripLevels(**kwargs)
+
+
+@pytest.mark.parametrize("options, message", [
+    (dict(trip_stress=-1.0), r"^slab: trip_stress must be in \(0, 100\] .*, got -1.0$"),
+    (dict(trip_omega=2.0), r"^slab: trip_omega must be in \(0, 1\] .*, got 2.0$"),
+    (dict(zone_start=3.0), r"^slab: zone.start = 3.0 m: a DE zone of 19 cells .* do not fit in the 15 cells"),
+    (dict(zone_start=0.6, zone_limit=0.3),
+     r"^slab: zone limit \(36 cells\) does not hold the start zone \(20 cells\)"),
+])
+def test_slab_refuses_bad_auto_zone_options(options, message):
+    from cases.slab import SlabSpec
+    with pytest.raises(ValueError, match=message) as e:
+        SlabSpec(zone="auto", **options)
+    assert "\n" not in str(e.value)
+
+
+def test_slab_limit_default_leaves_band_and_a_cell_before_the_supports():
+    from cases.slab import SlabSpec
+    from cases.slab.zone import check
+    spec = SlabSpec(zone="auto")
+    base, start, limit, _ = check(spec)
+    assert limit.shape == (15, 12)
+    assert np.flatnonzero(limit.any(axis=1)).tolist() == list(range(4, 11)) and limit[4:11].all()
+    assert np.array_equal(np.argwhere(start.any(axis=1)).ravel(), np.arange(5, 10)) and start[5:10].all()
+
+
+def test_case_files_take_zone_auto_and_its_table():
+    """`[slab] zone = "auto"` and the `[zone]` table reach SlabSpec; a bad level is refused
+    with its one line among the case file's problems."""
+    from pathlib import Path
+    from cases.kinds import load_case
+    from cases.slab.casefile import spec as slab_spec
+    slab_toml = Path(__file__).resolve().parents[1] / "cases" / "slab.toml"
+    spec = slab_spec(load_case(slab_toml, ["slab.zone=auto", "zone.start=0.3",
+                                           "zone.trip_omega=0.2", "zone.fallback=full"]))
+    assert (spec.zone, spec.zone_start, spec.trip_omega, spec.fallback) == ("auto", 0.3, 0.2, "full")
+    with pytest.raises(ValueError, match=r"\n  - zone.trip_stress = 200.0: must be in \(0, 100\]"):
+        load_case(slab_toml, ["slab.zone=auto", "zone.trip_stress=200.0"])
