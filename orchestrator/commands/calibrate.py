@@ -55,7 +55,6 @@ def configure(p):
 
 def run(args):
     from dataclasses import asdict, replace
-    from common.files import write_json
     from orchestrator.run.folder import prepare_out
     from yade_side import calibration as cal
     from yade_side.fracture import mc2010_fracture_energy
@@ -104,6 +103,26 @@ def run(args):
                                gf_tol=args.gf_tol, max_iter=args.max_iter)
     c, t = result["compression"], result["tension"]
     macro = cal.summary(c, t)
+    _write(out, radius, size, sample, target, loading, result, macro)
+    plot_curves(out / "stress_strain.png", c, t, macro, radius)
+    _print_result(result, macro, out)
+    return 0
+
+
+def fracture_record(test):
+    """The energy balance of a separation test (None for a tension test to 70 % of the peak)."""
+    if "fracture_energy" not in test:
+        return None
+    keys = ("work", "elastic_end", "kinetic", "damping", "area", "work_of_fracture",
+            "strain_peak", "separated")
+    return {k: test[k] for k in keys}
+
+
+def _write(out, radius, size, sample, target, loading, result, macro):
+    """calibration.json."""
+    from dataclasses import asdict
+    from common.files import write_json
+    c, t = result["compression"], result["tension"]
     curves = {m: {k: r[k] for k in ("strain", "stress", "strain_mid", "lateral_mid") if k in r}
               for m, r in (("compression", c), ("tension", t))}
     runs = {m: {k: r[k] for k in ("steps", "dt", "seconds")} for m, r in (("compression", c),
@@ -115,7 +134,9 @@ def run(args):
         converged=result["converged"], runs=runs,
         fracture_energy_J_m2=macro["fracture_energy"], tensile_strength_Pa=macro["ft"],
         separation=fracture_record(t), curves=curves))
-    plot_curves(out / "stress_strain.png", c, t, macro, radius)
+
+
+def _print_result(result, macro, out):
     p = result["params"]
     print(f"CpmMat: young={p['young']:.4g} poisson={p['poisson']:.4g} sigmaT={p['sigmaT']:.4g} "
           f"epsCrackOnset={p['epsCrackOnset']:.4g} relDuctility={p['relDuctility']:.4g} "
@@ -127,16 +148,6 @@ def run(args):
           f"fc={macro['fc'] / 1e6:.2f} MPa ft={macro['ft'] / 1e6:.2f} MPa{gf_text} "
           f"({len(result['iterations'])} fit iterations"
           f"{', NOT converged' if result['converged'] is False else ''}); results in {out}")
-    return 0
-
-
-def fracture_record(test):
-    """The energy balance of a separation test (None for a tension test to 70 % of the peak)."""
-    if "fracture_energy" not in test:
-        return None
-    keys = ("work", "elastic_end", "kinetic", "damping", "area", "work_of_fracture",
-            "strain_peak", "separated")
-    return {k: test[k] for k in keys}
 
 
 def plot_curves(path, compression, tension, macro, radius):
