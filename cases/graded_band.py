@@ -51,6 +51,14 @@ def sphere_density():
     return PAPER_COUPLED["slab_spheres"] / ((a * b + shell_area(a, b, width)) * SLAB[2])
 
 
+def zone_scale_for_share(a, b, width, share):
+    """Factor s by which the a × b DE box must grow (same aspect) for a band of `width` to hold
+    `share` of the zone + band: (sa + 2w)(sb + 2w) = sa sb / (1 - share)."""
+    # s² ab share/(1-share) - 2w(a+b) s - 4w² = 0
+    A, B, C = a * b * share / (1 - share), -2 * width * (a + b), -4 * width**2
+    return (-B + np.sqrt(B * B - 4 * A * C)) / (2 * A)
+
+
 def de_critical_step(scale="paper", packing_fraction=None):
     """PWaveTimeStep of the scale's spheres: R sqrt(ρ_s / E) with ρ_s = 2400 / φ (material.py),
     φ the slab packing's fraction (default: 120,024 spheres of R = 11.2 mm in the slab)."""
@@ -104,10 +112,16 @@ def main():
           f"{PAPER_COUPLED['bridging']} = "
           f"{PAPER_COUPLED['bridging'] / (PAPER_COUPLED['slab_spheres'] + PAPER_COUPLED['impactor']):.1%})")
     print("layers  cell/d  width(m)  coupled  band  share  share+impactor  FE dt/DE dt")
-    for layers, ratio in ((3, 2.0), (2, 2.0), (1, 2.0), (3, 1.5), (2, 1.5), (3, 1.0), (3, 1.2)):
+    for layers, ratio in ((3, 4.0), (3, 3.0), (3, 2.0), (2, 2.0), (1, 2.0), (3, 1.5), (2, 1.5),
+                          (3, 1.2), (3, 1.0)):
         f = band_figures(layers, ratio, with_fe=True)
         print(f"{layers:6d}  {ratio:6.2f}  {f.width:8.4f}  {f.coupled:7.0f}  {f.band:5.0f}  "
               f"{f.share:5.1%}  {f.share_with_impactor:14.1%}  {f.fe_critical / f.de_critical:6.3f}")
+    a, b = (hi - lo)[:2]
+    for layers, ratio in ((3, 2.0), (3, 4.0)):
+        k = zone_scale_for_share(a, b, layers * ratio * 2 * SCALES["paper"], 0.35)
+        print(f"a 35 % band share with {layers} layers of {ratio} d needs a DE box "
+              f"{k * a:.3f} x {k * b:.3f} m ({k:.2f} x today's)")
     t, nodes = graded_fe_critical_step(spec, 3, 4 * SCALES["paper"], weighted=True)
     print(f"3 layers of 2 d, consistent weighting (alpha in K and M): FE dt / DE dt = "
           f"{t / de_critical_step():.3f}, {nodes} nodes")
