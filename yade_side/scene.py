@@ -11,10 +11,10 @@ INTERACTION_RADIUS = 1.5
 # A likely cause: the CPM law turns a link's total shear strain with the contact but not its
 # plastic part, so a broken link that keeps sliding and turning gets a spurious elastic strain.
 BROKEN_OMEGA = 0.99
-# Past this damage a link's shear stiffness is set to zero (cpm_engines(shear_release_every=k)): the
-# public CPM law keeps a cracked link's full shear stiffness and, in compression, its full
-# friction until deletion; that friction across cracks is what makes the 40 m/s slab impact
-# gain energy at 0.3 × PWave (docs/performance.md). The normal law is left as it is.
+# Past this damage a link's shear stiffness is set to zero (cpm_engines with
+# shear_release_every): the public CPM law keeps a cracked link's full shear stiffness and, in
+# compression, its full friction until deletion; that friction across cracks is what makes the
+# 40 m/s slab impact gain energy at 0.3 × PWave (docs/performance.md). The normal law is kept.
 SHEAR_RELEASE_OMEGA = 0.9
 
 
