@@ -110,13 +110,14 @@ def main():
     print(f"today (uniform): band {today.band:.0f} of {today.coupled:.0f} slab spheres = "
           f"{today.share:.1%} ({today.share_with_impactor:.1%} with the impactor; measured "
           f"{PAPER_COUPLED['bridging']} = "
-          f"{PAPER_COUPLED['bridging'] / (PAPER_COUPLED['slab_spheres'] + PAPER_COUPLED['impactor']):.1%})")
+          f"{PAPER_COUPLED['bridging'] / (today.coupled + PAPER_COUPLED['impactor']):.1%})")
     print("layers  cell/d  width(m)  coupled  band  share  share+impactor  FE dt/DE dt")
     for layers, ratio in ((3, 4.0), (3, 3.0), (3, 2.0), (2, 2.0), (1, 2.0), (3, 1.5), (2, 1.5),
                           (3, 1.2), (3, 1.0)):
         f = band_figures(layers, ratio, with_fe=True)
         print(f"{layers:6d}  {ratio:6.2f}  {f.width:8.4f}  {f.coupled:7.0f}  {f.band:5.0f}  "
-              f"{f.share:5.1%}  {f.share_with_impactor:14.1%}  {f.fe_critical / f.de_critical:6.3f}")
+              f"{f.share:5.1%}  {f.share_with_impactor:14.1%}  "
+              f"{f.fe_critical / f.de_critical:6.3f}")
     a, b = (hi - lo)[:2]
     for layers, ratio in ((3, 2.0), (3, 4.0)):
         k = zone_scale_for_share(a, b, layers * ratio * 2 * SCALES["paper"], 0.35)

@@ -153,8 +153,8 @@ def tensor_box_with_hole(xs, ys, zs, hole_lo, hole_hi, comm=MPI.COMM_WORLD, tol=
     # dolfinx's hexahedron: vertices in lexicographic order, x fastest
     cells = np.stack([node(a, b, c) for c in (0, 1) for b in (0, 1) for a in (0, 1)], axis=1)
     used, inverse = np.unique(cells, return_inverse=True)
-    I, J, K = used % (n[0] + 1), (used // (n[0] + 1)) % (n[1] + 1), used // ((n[0] + 1) * (n[1] + 1))
-    points = np.stack([axes[0][I], axes[1][J], axes[2][K]], axis=1)
+    ijk = np.unravel_index(used, (n[2] + 1, n[1] + 1, n[0] + 1))[::-1]  # x fastest
+    points = np.stack([a[c] for a, c in zip(axes, ijk)], axis=1)
     return _linear_mesh(comm, inverse.reshape(cells.shape).astype(np.int64), points, "hexahedron")
 
 

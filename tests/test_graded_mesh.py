@@ -80,7 +80,8 @@ def test_graded_mesh_interpolates_linear_fields_exactly():
     """Q1 on the graded grid: a linear field's gradient is exact in every cell (the cells are
     boxes of all sizes, so a wrong vertex order would show here)."""
     xs, ys, zs = paper_axes()
-    msh = tensor_box_with_hole(xs, ys, zs, (X_HOLE[0], Y_HOLE[0], 0.0), (X_HOLE[1], Y_HOLE[1], 0.28))
+    msh = tensor_box_with_hole(xs, ys, zs, (X_HOLE[0], Y_HOLE[0], 0.0),
+                               (X_HOLE[1], Y_HOLE[1], 0.28))
     V = fem.FunctionSpace(msh, ("Lagrange", 1))
     u = fem.Function(V)
     u.interpolate(lambda p: 1.0 + 2.0 * p[0] - 3.0 * p[1] + 0.5 * p[2])
@@ -90,7 +91,8 @@ def test_graded_mesh_interpolates_linear_fields_exactly():
 
 def test_tensor_box_refuses_a_hole_off_the_grid():
     xs, ys, zs = np.linspace(0, 1, 5), np.linspace(0, 1, 5), np.linspace(0, 0.2, 2)
-    with pytest.raises(ValueError, match=r"hole_lo\[0\] = 0.3 is not on a grid plane; nearest: 0.25"):
+    with pytest.raises(ValueError, match=r"hole_lo\[0\] = 0.3 is not on a grid plane; "
+                                         r"nearest: 0.25"):
         tensor_box_with_hole(xs, ys, zs, (0.3, 0.25, 0), (0.75, 0.75, 0.2))
     with pytest.raises(ValueError, match="increase strictly"):
         tensor_box_with_hole([0, 1, 0.5], ys, zs, (0, 0.25, 0), (1, 0.75, 0.2))
