@@ -4,7 +4,7 @@ and the FE critical time step, for bands of `layers` cells of `ratio` sphere dia
     /usr/bin/python3 -m cases.graded_band
 
 Sphere counts come from the geometry: the band is the box-shaped shell (Chebyshev depth, as
-orchestrator.bridging.BoxZone) of width layers × h around the DE box, through the thickness,
+orchestrator.coupling.bridging.BoxZone) of width layers × h around the DE box, through the thickness,
 and holds N_V × its volume spheres. N_V, the spheres per m³ of the zone and band, is measured
 on today's paper-scale coupled model (PAPER_COUPLED).
 """
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cases.slab import CPM, SCALES, SLAB, SlabSpec, slab_grid
+from cases.slab import SCALES, SLAB, SlabSpec, slab_grid
 
 # today's paper-scale coupled model (docs/benchmarks.md): slab spheres (28,365 less the
 # impactor's 2,042) in the DE box + 3 layers of 0.0714 m cells; the bridging spheres among them
@@ -62,9 +62,9 @@ def zone_scale_for_share(a, b, width, share):
 def de_critical_step(scale="paper", packing_fraction=None):
     """PWaveTimeStep of the scale's spheres: R sqrt(ρ_s / E) with ρ_s = 2400 / φ (material.py),
     φ the slab packing's fraction (default: 120,024 spheres of R = 11.2 mm in the slab)."""
-    r = SCALES[scale]
+    r = SCALES[scale].radius
     phi = packing_fraction or 120024 * 4 / 3 * np.pi * r**3 / np.prod(SLAB)
-    return r * np.sqrt(2400.0 / phi / CPM[scale]["young"])
+    return r * np.sqrt(2400.0 / phi / SCALES[scale].cpm["young"])
 
 
 def graded_fe_critical_step(spec, layers, h, ratio_max=1.2, h_max=None, weighted=False):
@@ -72,7 +72,7 @@ def graded_fe_critical_step(spec, layers, h, ratio_max=1.2, h_max=None, weighted
     `layers` cells of h around today's DE box, the thickness cells as today."""
     from fenicsx_side.mesh import graded_axis, tensor_box_with_hole
     from fenicsx_side.model import ElasticModel, face
-    from orchestrator.bridging import BoxZone, Bridging
+    from orchestrator.coupling.bridging import BoxZone, Bridging
     lo, hi = zone_box(spec)
     cap = slab_grid(spec).h if h_max is None else h_max
     xs = graded_axis(0.0, SLAB[0], lo[0], hi[0], h, layers, ratio_max, max(cap, h))
@@ -89,7 +89,7 @@ def band_figures(layers, ratio, with_fe=False):
     spec = SlabSpec(scale="paper")
     lo, hi = zone_box(spec)
     a, b = (hi - lo)[:2]
-    h = ratio * 2 * SCALES["paper"]
+    h = ratio * 2 * SCALES["paper"].radius
     width = layers * h
     n_v = sphere_density() * SLAB[2]
     band, zone = n_v * shell_area(a, b, width), n_v * a * b
@@ -102,11 +102,11 @@ def main():
     spec = SlabSpec(scale="paper")
     lo, hi = zone_box(spec)
     h_today = slab_grid(spec).h
-    print(f"paper scale: DE box {np.round(hi - lo, 4)[:2].tolist()} m, R = {SCALES['paper']} m, "
+    print(f"paper scale: DE box {np.round(hi - lo, 4)[:2].tolist()} m, R = {SCALES['paper'].radius} m, "
           f"spheres per m^3 of zone + band {sphere_density():.0f}, today's cells "
-          f"{h_today:.4f} m = {h_today / (2 * SCALES['paper']):.2f} d, thickness cells "
+          f"{h_today:.4f} m = {h_today / (2 * SCALES['paper'].radius):.2f} d, thickness cells "
           f"{SLAB[2] / slab_grid(spec).n[2]:.4f} m")
-    today = band_figures(spec.layers, h_today / (2 * SCALES["paper"]))
+    today = band_figures(spec.layers, h_today / (2 * SCALES["paper"].radius))
     print(f"today (uniform): band {today.band:.0f} of {today.coupled:.0f} slab spheres = "
           f"{today.share:.1%} ({today.share_with_impactor:.1%} with the impactor; measured "
           f"{PAPER_COUPLED['bridging']} = "
@@ -120,10 +120,10 @@ def main():
               f"{f.fe_critical / f.de_critical:6.3f}")
     a, b = (hi - lo)[:2]
     for layers, ratio in ((3, 2.0), (3, 4.0)):
-        k = zone_scale_for_share(a, b, layers * ratio * 2 * SCALES["paper"], 0.35)
+        k = zone_scale_for_share(a, b, layers * ratio * 2 * SCALES["paper"].radius, 0.35)
         print(f"a 35 % band share with {layers} layers of {ratio} d needs a DE box "
               f"{k * a:.3f} x {k * b:.3f} m ({k:.2f} x today's)")
-    t, nodes = graded_fe_critical_step(spec, 3, 4 * SCALES["paper"], weighted=True)
+    t, nodes = graded_fe_critical_step(spec, 3, 4 * SCALES["paper"].radius, weighted=True)
     print(f"3 layers of 2 d, consistent weighting (alpha in K and M): FE dt / DE dt = "
           f"{t / de_critical_step():.3f}, {nodes} nodes")
     t, nodes = graded_fe_critical_step(spec, spec.layers, h_today)

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
+
 import ufl
 from dolfinx import fem, geometry
 from dolfinx.fem import petsc
@@ -255,7 +255,7 @@ class ElasticModel:
         _check_located(owner < size, points)
         mine = owner[found] == rank
         cells, X = cells[mine], X[mine]
-        n, nv = len(points), self.cell_nodes.shape[1]
+        n = len(points)
         N, grad = self._basis_at(cells, X)
         node = self._global_node[self.cell_nodes[cells]]        # (m, nv)
         j = np.broadcast_to(np.flatnonzero(found)[mine][:, None], node.shape)

@@ -134,11 +134,12 @@ def test_pull_out_gives_the_bond_strength():
 
 
 def strip_deflection(layer, load=2e4, tol=2e-4, chunk=500, max_chunks=80):
-    """Mid-span deflection of the small slab's DE strip in 3-point bending (cases.slab_bending's
+    """Mid-span deflection of the small slab's DE strip in 3-point bending (cases.slab.bending's
     strip, supports, load and gauge; links undamaged), with the bars of `layer` if given, and
     the PWaveTimeStep without and with them."""
     from yade import utils
-    from cases import slab, slab_bending as sb
+    from cases import slab
+    from cases.slab import bending as sb
     from cases.reinforcement import bar_layout
     from yade_side.bulk import BodySet
     from yade_side.material import cpm_material
@@ -188,7 +189,7 @@ def test_reinforced_de_strip_bends_like_the_transformed_section():
     (span/depth 9: ~3 % of the deflection, on both strips alike). The bars leave
     PWaveTimeStep unchanged."""
     from cases.reinforcement import Layer, transformed_section
-    from cases.slab_bending import fe_deflection, REFERENCE_E
+    from cases.slab.bending import fe_deflection, REFERENCE_E
     from cases import slab
     layer = Layer(diameter=0.02, spacing=0.1, direction="x", cover=0.04)
     plain, _, _, _ = strip_deflection(None)
