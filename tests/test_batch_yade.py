@@ -116,7 +116,8 @@ def test_a_binary_table_is_refused_in_one_line(tmp_path, capsys):
     table = tmp_path / "p.bin"
     table.write_bytes(b"\xff\xfe\x00\x01")
     assert main(["batch", str(case), "--table", str(table), "--out", str(tmp_path / "o")]) == 2
-    assert capsys.readouterr().err == f"error: parameter table {table} is not a text file\n"
+    assert capsys.readouterr().err == (f"error: parameter table {table} is not UTF-8 text: "
+                                       f"byte 0xff at position 0 (line 1, column 1)\n")
 
 
 # --- a YADE script reading its row --------------------------------------------------------
