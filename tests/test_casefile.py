@@ -133,7 +133,7 @@ def test_the_slab_case_file_is_the_slab_commands_default():
     from cases.slab import SlabSpec
     from cases.slab.casefile import spec as slab_spec
     spec = slab_spec(load(ROOT / "cases" / "slab.toml"))
-    assert spec == SlabSpec(scale="small", variant="diagonal", relaxation=35.0, rotations=True,
+    assert spec == SlabSpec(scale="small", variant="diagonal", relaxation="auto", rotations=True,
                             output_every=200)
 
 

@@ -8,7 +8,7 @@ from cases.block3d import BlockSpec, CoupledBlock, WeightedEnergy
 # half-space bridging (the paper's arrangement): DE zone x < 0.048, 2 bridging layers of 12 mm
 HALF_SPACE = dict(size=(0.084, 0.048, 0.048), de_length=0.048)
 # full overlap with uniform weights α = β = ½: the paper's nodal weighting is then conservative
-OVERLAP = dict(size=(0.072, 0.048, 0.048), uniform_weight=0.5)
+OVERLAP = dict(size=(0.072, 0.048, 0.048), uniform_weight=0.5, weighting="nodal")
 # the arrangements in which the coupled system has an exact energy
 CONSERVATIVE = {"uniform overlap, nodal weights": OVERLAP,
                 "half-space, consistent weights": dict(HALF_SPACE, weighting="consistent")}
@@ -109,7 +109,8 @@ def test_diagonal_and_relaxed_variants_create_no_energy(variant, relaxation):
                    "growth (docs/coupling.md, 'Coupled 3D block')")
 @pytest.mark.parametrize("variant,relaxation", [("full", 1.0), ("diagonal", 35.0)])
 def test_half_space_bridging_creates_no_energy(variant, relaxation):
-    block = CoupledBlock(BlockSpec(variant=variant, relaxation=relaxation, **HALF_SPACE))
+    block = CoupledBlock(BlockSpec(variant=variant, relaxation=relaxation, weighting="nodal",
+                                   **HALF_SPACE))
     e, _ = energy_history(block, 3000)
     # the weighted energy of a ramped band is not an invariant; its window means must not grow
     windows = e.reshape(6, -1).mean(axis=1) / e[0]

@@ -12,6 +12,7 @@ import pytest
 
 from cases.generic import CaseModel
 from cases.kinds import load_case as load
+from cases.slab import SlabSpec
 from orchestrator.casefile import CaseError
 from orchestrator.cli import main
 from yade_side.output import read_series
@@ -263,6 +264,8 @@ def test_the_slab_case_file_runs_the_slab(tmp_path):
     assert main(["run", str(ROOT / "cases" / "slab.toml"), "--set", "time.steps=30",
                  "--set", "output.every=15", "--out", str(out), "--quiet"]) == 0
     s = json.loads((out / "summary.json").read_text())
-    assert s["model"] == "coupled" and s["steps"] == 30 and s["spec"]["relaxation"] == 35.0
+    assert s["model"] == "coupled" and s["steps"] == 30
+    assert s["spec"]["relaxation"] == s["coupling"]["relaxation"] == SlabSpec().relaxation
+    assert "the 1D band's r" in s["spec"]["relaxation_rule"]
     for name in ("case.toml", "run.log", "spheres.pvd", "fe.xdmf", "sensors.png", "damage.png"):
         assert (out / name).is_file(), name

@@ -56,7 +56,7 @@ class BlockSpec:
     relaxation: float = 1.0
     rotations: bool = True
     uniform_weight: float = None       # α everywhere: spheres and FE overlap on the whole block
-    weighting: str = "nodal"           # "nodal" (the paper's) or "consistent" (see above)
+    weighting: str = "consistent"      # or "nodal", the paper's (see above)
     packing: str = "random"            # "random" (dense random packing) or "cubic" (simple
                                        # cubic lattice of spacing 2R: an affine field is an
                                        # exact equilibrium of its links)

@@ -104,8 +104,11 @@ class SlabSpec:
                          help="bridging weights: 'consistent' puts α, β inside the partners' "
                               "masses and stiffnesses (energy-conserving), 'nodal' is the "
                               "paper's (not conservative, docs/coupling.md)")
-    relaxation: object = key(35.0, relaxation_kind, positive, section="coupling",
-                             help="relaxation r (the paper's 35), or 'auto': the 1D study's rule")
+    relaxation: object = key("auto", relaxation_kind, positive, section="coupling",
+                             help="relaxation r, or 'auto': the rule derived from the 1D band "
+                                  "(docs/wave1d.md; r = 74.5 at small scale); the paper's 35 "
+                                  "gives the same slab within the full model's scatter "
+                                  "(docs/slab.md)")
     rotations: bool = key(True, boolean, section="coupling", help="couple sphere rotations")
     dt_safety: float = key(0.15, number, safety_range, section="time",
                            help="× the smaller critical step (at 0.3 the slab gains energy "

@@ -25,7 +25,7 @@ def configure(p):
     p.add_argument("--uncoupled", action="store_true",
                    help="also run the spheres alone (walls prescribed, no coupling, the FE not "
                         "stepped): the packing's own error")
-    add_weighting(p, "nodal")
+    add_weighting(p, "consistent")
     add_out(p, "results folder")
 
 
