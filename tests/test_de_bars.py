@@ -9,7 +9,7 @@ from cases.reinforcement import Bars
 from yade_side import import_yade
 from yade_side.bars import Bond, SteelChains
 from yade_side.packing import add_spheres
-from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
+from yade_side.scene import block_dofs, cpm_engines, create_cohesive_links, reset_scene
 
 yade = import_yade()
 R = 0.01
@@ -163,21 +163,12 @@ def strip_deflection(layer, load=2e4, tol=2e-4, chunk=500, max_chunks=80):
     for i in O.interactions:
         i.phys.neverDamage = True
     newton.damping = 0.5
-    for i in ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)]:
-        O.bodies[int(i)].state.blockedDOFs = "z"
+    block_dofs(ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)], "z")
     top = sb._top(c, r)
     for i in ids[top]:
         O.forces.setPermF(int(i), (0, 0, -load / top.sum()))
-    gauge = BodySet(ids[sb._gauge(c)])
-    last = None
-    for _ in range(max_chunks):
-        O.run(chunk, True)
-        gauge.read()
-        w = float(gauge.displacement()[:, 2].mean())
-        if last is not None and abs(w - last) < tol * abs(w):
-            return -w, dt_plain, dt_bars, chain
-        last = w
-    raise RuntimeError("DE strip deflection did not settle")
+    w = sb.settled_deflection(BodySet(ids[sb._gauge(c)]), tol, chunk, max_chunks)
+    return -w, dt_plain, dt_bars, chain
 
 
 @pytest.mark.slow

@@ -42,14 +42,21 @@ def de_deflection(spec, load, tol=2e-4, chunk=500, max_chunks=60):
     top = _top(c, r)
     for i in ids[top]:
         O.forces.setPermF(int(i), (0, 0, -load / top.sum()))
-    gauge = BodySet(ids[_gauge(c)])
+    return settled_deflection(BodySet(ids[_gauge(c)]), tol, chunk, max_chunks), len(ids)
+
+
+def settled_deflection(gauge, tol=2e-4, chunk=500, max_chunks=60):
+    """The mean z displacement of the spheres `gauge` once it changes by less than tol
+    (relative) over `chunk` steps of the damped quasi-static run."""
+    from yade_side import import_yade
+    O = import_yade().Omega()
     last = None
     for _ in range(max_chunks):
         O.run(chunk, True)
         gauge.read()
         w = float(gauge.displacement()[:, 2].mean())
         if last is not None and abs(w - last) < tol * abs(w):
-            return w, len(ids)
+            return w
         last = w
     raise RuntimeError(f"DE strip deflection did not settle within {max_chunks * chunk} steps")
 
