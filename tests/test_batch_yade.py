@@ -206,14 +206,20 @@ def test_slurm_script_has_one_array_task_per_row(tmp_path, capsys):
     assert "batch --task 3: the batch has 3 runs, tasks 0 to 2" in capsys.readouterr().err
 
 
-@pytest.mark.slow
-def test_each_array_task_runs_its_row_as_slurm_would(tmp_path):
+def slurm_batch(tmp_path):
+    """`batch --slurm` of a 2-row yade-batch table of a short block_impact: its folder."""
     table = tmp_path / "p.table"
     table.write_text("coupling.relaxation time.duration description\n5 4e-6 r5\n20 = r20\n")
     out = tmp_path / "sweep"
     subprocess.run([sys.executable, "-m", "orchestrator", "batch", "cases/block_impact.toml",
                     "--table", str(table), "--slurm", "--out", str(out)], cwd=ROOT,
                    check=True, capture_output=True)
+    return out
+
+
+@pytest.mark.slow
+def test_each_array_task_runs_its_row_as_slurm_would(tmp_path):
+    out = slurm_batch(tmp_path)
     for task in (1, 0):           # in any order, from any folder, as the array's tasks
         subprocess.run(["bash", str(out / "batch.sbatch")], cwd=tmp_path, check=True,
                        env={**run_env(), "SLURM_ARRAY_TASK_ID": str(task),
@@ -233,12 +239,7 @@ def slurm_cluster_up():
 @pytest.mark.slow
 @pytest.mark.skipif(not slurm_cluster_up(), reason="no idle Slurm node (docker/slurm-node.sh)")
 def test_a_job_array_on_a_single_node_slurm(tmp_path):
-    table = tmp_path / "p.table"
-    table.write_text("coupling.relaxation time.duration description\n5 4e-6 r5\n20 = r20\n")
-    out = tmp_path / "sweep"
-    subprocess.run([sys.executable, "-m", "orchestrator", "batch", "cases/block_impact.toml",
-                    "--table", str(table), "--slurm", "--out", str(out)], cwd=ROOT,
-                   check=True, capture_output=True)
+    out = slurm_batch(tmp_path)
     subprocess.run(["sbatch", "--wait", str(out / "batch.sbatch")], check=True,
                    capture_output=True, timeout=600)
     with open(out / "batch_summary.csv") as f:
