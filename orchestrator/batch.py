@@ -30,7 +30,7 @@ import subprocess
 import sys
 import tomllib
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from time import perf_counter
 
@@ -253,7 +253,6 @@ def run_job(job, out, env=None):
     """Run one job into out/<name>; its summary row."""
     out = Path(out)
     env = dict(os.environ if env is None else env)
-    env.setdefault("OMP_NUM_THREADS", "1")
     env.update(job.environment(out))
     t0 = perf_counter()
     with open(out / "logs" / f"{job.name}.log", "w") as log:
@@ -278,9 +277,12 @@ def run_job(job, out, env=None):
 
 def run_batch(jobs, out, parallel=1, env=None):
     """Run the jobs `parallel` at a time into folder `out` (prepared by the caller); return
-    the summary rows, in job order."""
+    the summary rows, in job order. Runs side by side take one YADE thread each unless their
+    row sets it (one run alone takes every core)."""
     if int(parallel) != parallel or parallel < 1:
         raise ValueError(f"runs at a time must be an integer >= 1, got {parallel!r}")
+    if parallel > 1:
+        jobs = [replace(job, threads=job.threads or 1) for job in jobs]
     prepare_batch(jobs, out)
     with ThreadPoolExecutor(max_workers=int(parallel)) as pool:
         rows = list(pool.map(lambda job: run_job(job, out, env), jobs))

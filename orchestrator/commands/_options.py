@@ -28,7 +28,8 @@ def count(text):
 
 def add_threads(p):
     p.add_argument("--threads", type=count, default=None,
-                   help="YADE OpenMP threads (default: OMP_NUM_THREADS, else 1)")
+                   help="YADE OpenMP threads (default: OMP_NUM_THREADS, else every core; "
+                        "only 1 gives bit-identical results and restarts)")
 
 
 def add_out(p, what="results folder", required=True):
@@ -40,7 +41,7 @@ def add_out(p, what="results folder", required=True):
 def add_spec_options(p, cls):
     """One option per case-file field of the description `cls` (`--field-name`); left out,
     the description's own default applies."""
-    for f in _keyed(cls):
+    for f in keyed_fields(cls):
         m = f.metadata
         default = "per scale" if f.default is None else f.default
         text = f"{m['help']} (default: {default})"
@@ -54,12 +55,13 @@ def add_spec_options(p, cls):
 def spec_from_args(cls, args, **values):
     """An instance of `cls` from the options add_spec_options made (the description checks
     the values)."""
-    values.update({f.name: getattr(args, f.name) for f in _keyed(cls)
+    values.update({f.name: getattr(args, f.name) for f in keyed_fields(cls)
                    if getattr(args, f.name) is not None})
     return cls(**values)
 
 
-def _keyed(cls):
+def keyed_fields(cls):
+    """The fields of `cls` that are case-file keys and options."""
     return [f for f in fields(cls) if "kind" in f.metadata and f.default is not MISSING]
 
 

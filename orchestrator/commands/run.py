@@ -26,7 +26,10 @@ def run(args):
                              "give no case file, --set, --out or --force with it")
         from orchestrator.run.restart import check_inputs, resume_meta
         out = Path(args.resume)
-        info = resume_meta(out)["info"]       # a clear error if there is no checkpoint
+        meta = resume_meta(out)               # a clear error if there is no checkpoint
+        info = meta["info"]
+        if args.threads is None:        # the run's own threads: a 1-thread run stays bit-identical
+            args.threads = meta.get("yade_threads")
         if not (out / "case.toml").is_file() and "spec" in info:
             raise ValueError(f"{out} holds a checkpoint of the slab command (no case.toml): "
                              f"resume it with `slab --resume`")

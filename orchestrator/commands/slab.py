@@ -1,6 +1,7 @@
 """`slab`: the paper's slab impact, full YADE or coupled YADE/FEniCSx. Every option but the
 model, threads and folders is a field of cases.slab.SlabSpec, which holds the defaults."""
-from orchestrator.commands._options import add_out, add_spec_options, add_threads, spec_from_args
+from orchestrator.commands._options import (add_out, add_spec_options, add_threads, count,
+                                            spec_from_args)
 
 NAME = "slab"
 HELP = "slab impact (paper §5): --model full|coupled --scale small|medium|paper"
@@ -14,6 +15,8 @@ def configure(p):
     add_spec_options(p, SlabSpec)
     p.add_argument("--seeds", type=_seed_list, metavar="N,N,...",
                    help="an ensemble: one run per packing seed, in DIR/seed-N (instead of --seed)")
+    p.add_argument("--jobs", type=count, default=None,
+                   help="ensemble members run at a time (default: one per core)")
     add_threads(p)
     p.add_argument("--resume", metavar="DIR",
                    help="carry on a stopped run from its checkpoint (other options are taken "
@@ -32,12 +35,16 @@ def run(args):
         given = [f"--{f.name.replace('_', '-')}" for f in fields(slab.SlabSpec)
                  if getattr(args, f.name, None) is not None]
         given += [o for o, v in (("--model", args.model), ("--out", args.out),
-                                 ("--force", args.force), ("--seeds", args.seeds)) if v]
+                                 ("--force", args.force), ("--seeds", args.seeds),
+                                 ("--jobs", args.jobs)) if v]
         if given:
             raise ValueError(f"--resume DIR takes the slab and its folder from DIR's "
                              f"checkpoint: give no {', '.join(given)} with it")
         from orchestrator.run.restart import resume_meta
-        info = resume_meta(args.resume)["info"]
+        meta = resume_meta(args.resume)
+        info = meta["info"]
+        if args.threads is None:        # the run's own threads: a 1-thread run stays bit-identical
+            args.threads = meta.get("yade_threads")
         if "spec" not in info or "model" not in info:
             raise ValueError(f"{args.resume} holds a checkpoint of case {info.get('case')!r}, "
                              f"not of a slab run: resume it with `run --resume`")
@@ -51,8 +58,11 @@ def run(args):
         raise ValueError("give --model full|coupled and --out DIR for a new run, or --resume DIR")
     if args.seeds:
         if MPI.COMM_WORLD.size > 1:
-            raise ValueError("--seeds runs its members one after the other: not under mpirun")
-        return _ensemble(spec, model, args)
+            raise ValueError("--seeds runs its members as processes of their own: not under "
+                             "mpirun")
+        return _ensemble(model, args)
+    if args.jobs is not None:
+        raise ValueError("--jobs is for an ensemble (--seeds)")
     comm = MPI.COMM_WORLD
     if comm.size > 1:
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
@@ -80,21 +90,46 @@ def run(args):
     return 0
 
 
-def _ensemble(spec, model, args):
-    """One member per seed, one after the other in this process: DIR/seed-N, each folder made
-    once its model is built."""
-    from dataclasses import replace
-    from pathlib import Path
-    from cases import slab
+def _ensemble(model, args):
+    """One member per seed, DIR/seed-N, each a `slab --seed N` process of its own, `--jobs` at
+    a time (default: one per core). Members run on one YADE thread unless --threads is given,
+    so each is bit-identical to the same seed run alone with --threads 1."""
+    import subprocess
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
     from orchestrator.run.folder import prepare_out
-    from yade_side import import_yade
-    import_yade(args.threads)
+    from yade_side import cores
     top = prepare_out(args.out, args.force)
-    for seed in args.seeds:
-        member, out = replace(spec, seed=seed), Path(top / f"seed-{seed}")
-        s = slab.run(member, model, out, quiet=args.quiet, start=lambda: prepare_out(out))
-        _report(model, member, s, out)
+    jobs = args.jobs or max(1, min(len(args.seeds), cores()))
+    quiet = args.quiet or jobs > 1          # one progress bar per terminal
+
+    def member(seed):
+        cmd = [sys.executable, "-m", "orchestrator", "slab", "--model", model,
+               *_spec_argv(args, seed), "--out", str(top / f"seed-{seed}"),
+               "--threads", str(args.threads or 1)] + (["--quiet"] if quiet else [])
+        return subprocess.run(cmd).returncode
+
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        codes = dict(zip(args.seeds, pool.map(member, args.seeds)))
+    failed = [f"seed {s} (exit {c})" for s, c in codes.items() if c]
+    if failed:
+        raise ValueError(f"ensemble {top}: {len(failed)} of {len(codes)} members failed: "
+                         f"{', '.join(failed)}; each member's folder says why")
     return 0
+
+
+def _spec_argv(args, seed):
+    """The slab options of this command line, with packing `seed` instead of --seeds."""
+    from cases.slab import SlabSpec
+    from orchestrator.commands._options import keyed_fields
+    argv = ["--seed", str(seed)]
+    for f in keyed_fields(SlabSpec):
+        value, flag = getattr(args, f.name), "--" + f.name.replace("_", "-")
+        if isinstance(value, bool):
+            argv.append(flag if value else "--no-" + flag[2:])
+        elif value is not None and f.name != "seed":
+            argv += [flag, repr(value) if isinstance(value, float) else str(value)]
+    return argv
 
 
 def _report(model, spec, s, out):

@@ -45,15 +45,20 @@ def run(model, schedule, out, title, reference_energy, info=None, arrays=None, c
     """
     from orchestrator.run import outputs, restart
     from orchestrator.run.record import Recorder
+    from yade_side import yade_threads
     m = model
     with _run_log(out):
         log.info("%s: %d spheres, %d FE nodes, %d bridging spheres, dt %.4g s (critical %s), "
                  "%d steps", title, m.sphere_count(), 0 if m.fe is None else len(m.fe.nodes),
                  len(m.bridge_index), m.dt, m.critical, schedule.steps)
+        threads = yade_threads()
+        if threads > 1:
+            log.info("note: YADE on %d threads: results reproducible to round-off only "
+                     "(--threads 1 for bit-identical results and restarts)", threads)
         for note in notes:
             log.info("note: %s", note)
         meta = {**restart.fingerprint(m, title, schedule.steps), "info": info or {},
-                "inputs": inputs or {}}
+                "inputs": inputs or {}, "yade_threads": threads}
         recorder = Recorder(m, out, meta, reference_energy, log, resume)
         _loop(m, schedule, recorder, title, quiet)
         wall = recorder.finish()

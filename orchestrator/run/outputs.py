@@ -3,6 +3,7 @@ they are read back."""
 import numpy as np
 
 from common.files import save_figure, save_npz, write_csv, write_json
+from yade_side import yade_threads
 
 
 def summary(model, rec, schedule, wall, seconds, warnings, info):
@@ -17,6 +18,7 @@ def summary(model, rec, schedule, wall, seconds, warnings, info):
         "n_bridging_spheres": len(m.bridge_index),
         "steps": schedule.steps, "dt": m.dt, "critical_dt": m.critical,
         "wall_s": wall, "s_per_step": wall / schedule.steps,
+        "yade_threads": yade_threads(), "bit_identical": yade_threads() == 1,
         "time_split_s": seconds,
         "sensors": {name: {"position": np.asarray(m.sensor_positions[i]).tolist(),
                            "peak_displacement": float(np.linalg.norm(history[:, i], axis=1).max()),
