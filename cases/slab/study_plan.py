@@ -1,7 +1,7 @@
 """The runs of the study "where coupling pays" (docs/where-coupling-pays.md): which slab runs,
 in which folders, at what projected cost, and which are already done.
 
-The default plan fits BUDGET_S on one quiet core (2.85 h projected; 2.6 h when `make
+The default plan fits BUDGET_S on one quiet core (2.75 h projected; 2.5 h when `make
 validate`'s medium 40 m/s ensembles are reused). Medium scale, plain concrete, impacts of
 10 and 40 m/s (20 m/s with `--velocities 10,20,40` or `--sweep full`):
 - the full ensemble (seeds 1, 2, 3) of every impact;
@@ -15,12 +15,13 @@ validate`'s medium 40 m/s ensembles are reused). Medium scale, plain concrete, i
 and at paper scale the configuration the medium map says pays (else the paper scale's own
 zone), coupled against full over 5 ms after contact, one seed. `--sweep full`: every velocity,
 the sweep at each, the default zone and the automatic one on seeds 1-3, two paper seeds
-(about 6.7 h).
+(about 6.4 h).
 
 Costs are projections from the recorded benchmark (bench/results.json, `make bench`: CPU time
-per step of each model in the impact window, one thread): per step, YADE's cost per sphere (incl. output) × spheres
-+ the coupling's per bridging sphere × bridging spheres + the FE's per node × nodes, with the
-counts of each zone estimated from its share of the slab. An automatic-zone search costs
+per step of each model in the impact window, one thread): per step of a coupled model,
+YADE's cost per sphere (incl. output) in the benchmark's coupled model × spheres + the
+coupling's per bridging sphere × bridging spheres + the FE's per node × nodes, with the counts
+of each zone estimated from its share of the slab (within 2 % of the benchmark's models). An automatic-zone search costs
 AUTO_OVER_FULL × the full run (docs/auto-zone.md). A loaded core is slower by its load factor.
 """
 import json
@@ -243,7 +244,8 @@ def step_cost(spec, model, bench):
     step = lambda m: m["impact_step_s"] or m["step_s"]
     if model == "full":
         return step(f)
-    per_sphere = step(f) / f["n_spheres"]
+    split = c["split_s"]
+    per_sphere = (step(c) - split["coupling"] - split["fe"]) / c["n_spheres"]
     per_bridging = c["split_s"]["coupling"] / c["n_bridging_spheres"]
     per_node = c["split_s"]["fe"] / c["n_fe_nodes"]
     spheres, bridging, nodes = counts(spec, f["n_spheres"])
