@@ -191,12 +191,11 @@ def _medium(sweep, scale, v, steps, seeds):
 
 
 def _paper(sweep, config, bench):
-    v = max(VELOCITIES)
     b = bench if bench is not None else load_bench()
-    n = paper_steps(b["paper"]["full"]["dt"], v)
     chosen = config is None
-    coupled = config if config is not None else Config("paper", v, "coupled")
+    coupled = config if config is not None else Config("paper", max(VELOCITIES), "coupled")
     coupled = replace(coupled, scale="paper")
+    n = paper_steps(b["paper"]["full"]["dt"], coupled.velocity)
     seeds = (1, 2) if sweep == "full" else (1,)
     return ([Planned(coupled, s, n, chosen=chosen) for s in seeds]
             + [Planned(Config("paper", coupled.velocity, "full"), s, n) for s in seeds])
