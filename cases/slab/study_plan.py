@@ -359,8 +359,9 @@ def ensemble_index(folders):
         for members in parents.values():
             if len(members) > 1:
                 try:
-                    check_same_kind({f: {k: s["spec"].get(k) for k in SAME + ("model",)}
-                                     for f, s in members.items()})
+                    for keys in (("scale",), SAME + ("model",)):    # the scale named first
+                        check_same_kind({f: {k: s["spec"].get(k, s.get(k)) for k in keys}
+                                         for f, s in members.items()})
                 except ValueError as e:
                     raise ValueError(f"study: --reuse-ensembles: an ensemble of mixed kinds: "
                                      f"{e}") from None
