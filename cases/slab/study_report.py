@@ -23,8 +23,10 @@ def sensor_cell(s):
         return _f(max((x for x in (s or {}).get("nrms_to_full_mean", []) if x is not None),
                       default=None))
     n = s["nrms"]
+    if n["coupled_max"] is None:
+        return "undefined (no peak): **outside**"
     mark = "within" if s["within"] else "**outside**"
-    return f"{n['coupled_max']:.3f} / {n['full_leave_one_out_max']:.3f} {mark}"
+    return f"{_f(n['coupled_max'])} / {_f(n['full_leave_one_out_max'])} {mark}"
 
 
 def damage_cell(acc):
@@ -35,7 +37,7 @@ def damage_cell(acc):
     ratios = ", ".join(_f(r) for r in d["ratio_to_full_mean"])
     if v is None:
         return f"ratio {ratios}"
-    return (f"ratio {ratios}: {v['coupled_max']:.3f} / {v['full_leave_one_out_max']:.3f} "
+    return (f"ratio {ratios}: {_f(v['coupled_max'])} / {_f(v['full_leave_one_out_max'])} "
             f"{'within' if v['within'] else '**outside**'}")
 
 
@@ -60,7 +62,7 @@ def config_line(row):
 
 HEADER = ("| configuration | seeds | spheres | sphere ratio | speed-up per step | "
           + " | ".join(f"{n}: nRMS / scatter" for n in SENSORS)
-          + " | damaged volume: |ratio − 1| / scatter | wall s spent | goal |\n|"
+          + " | damaged volume: deviation / scatter | wall s spent | goal |\n|"
           + "---|" * (8 + len(SENSORS)) + "\n")
 
 
@@ -73,8 +75,8 @@ def markdown(table):
     lines = ["# Where coupling pays: the table", "",
              "Per configuration: the largest nRMS of a coupled member against the full "
              "ensemble's mean history, over the largest leave-one-out nRMS of a full member "
-             "(the scatter; orchestrator/verdicts.py), the damaged volume likewise (|ratio − "
-             "1|), the per-step speed-up (timed: one window of each model on CPU time, "
+             "(the scatter; orchestrator/verdicts.py), the damaged volume likewise (its "
+             "deviation: the ratio to the full mean less 1, in absolute value), the per-step speed-up (timed: one window of each model on CPU time, "
              "bench.worker; runs: the runs' own wall time), the wall time spent (an automatic "
              "zone's failed attempts included) and the goal (within the scatter on every "
              "sensor, nRMS and peak, and the damaged volume, and ≥ 5× cheaper per step at "
@@ -144,28 +146,39 @@ def plot_impact(impact, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
     panels = list(SENSORS) + ["damaged volume"]
-    fig, axes = plt.subplots(1, len(panels), figsize=(4 * len(panels), 4), sharex=True)
+    fig, grid = plt.subplots(2, 3, figsize=(13, 7.5), sharex=True)
+    axes, key = grid.ravel()[:len(panels)], grid.ravel()[-1]
     rows = [r for r in impact["configs"] if r["speedup"]["value"] is not None
             and (r["accuracy"] or {}).get("judged")]
     for ax, name in zip(axes, panels):
         for k, row in enumerate(rows):
             acc, x = row["accuracy"], row["speedup"]["value"]
             if name in acc["sensors"]:
-                v = acc["sensors"][name]["nrms"]
+                v = acc["sensors"][name].get("nrms")
             else:
                 v = acc["damage"]["damaged_volume_m3"]["verdict"]
+            if v is None or v["coupled_max"] is None:      # undefined: no peak, no damage
+                continue
             ax.bar(x, v["full_leave_one_out_max"], width=0.06 * x, color="0.8",
                    label="full scatter" if k == 0 else None)
             ax.plot(x, v["coupled_max"], "o" if v["within"] else "x", color=f"C{k % 10}",
                     label=row["config"])
         ax.axvline(GOAL_SPEEDUP[impact["scale"]], ls="--", color="k", lw=1)
         ax.set(xscale="log", title=name, xlabel="speed-up per step",
-               ylabel="nRMS to the full mean" if name in SENSORS else "|ratio − 1|")
-    axes[0].legend(fontsize="x-small")
-    if not rows:
-        axes[0].text(0.5, 0.5, "no judged configuration", transform=axes[0].transAxes,
-                     ha="center")
+               ylabel="nRMS to the full mean" if name in SENSORS else "|ratio to the mean − 1|")
+        top = max([r["speedup"]["value"] for r in rows] + [GOAL_SPEEDUP[impact["scale"]]])
+        ax.set_xlim(0.8, 1.5 * top)
+        ax.set_xticks([t for t in (1, 2, 5, 10, 20, 50) if t <= 1.5 * top])
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
+    key.axis("off")
+    handles, labels = axes[0].get_legend_handles_labels()
+    if rows:
+        key.legend(handles, labels, loc="center", fontsize="small")
+    else:
+        key.text(0.5, 0.5, "no judged configuration", ha="center")
     fig.suptitle(f"{impact_title(impact)}: error against speed-up (o within the full "
                  f"scatter, x outside; dashed: the goal)")
     fig.tight_layout()
