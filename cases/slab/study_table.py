@@ -78,7 +78,7 @@ def _full_figures(cfg, members, full, timing):
             "folders": {seed: str(f) for seed, (_, f, s) in members.items() if s is not None},
             "spheres": _mean([s["n_spheres"] for s in summaries.values()]),
             "steps": _first(summaries, "steps"), "dt": _first(summaries, "dt"),
-            "wall_s": [summaries[k]["wall_s"] for k in sorted(summaries)],
+            "wall_s": [spent(summaries[k]) for k in sorted(summaries)],
             "s_per_step": [summaries[k]["s_per_step"] for k in sorted(summaries)]}
 
 
@@ -113,11 +113,10 @@ def config_row(c, members, full, full_cfg, found, timing):
 
 def _cost(done, full, full_members):
     """Wall seconds spent: every member, an automatic zone's failed attempts included."""
-    walls = {seed: s.get("zone_total_wall_s", s.get("wall_s")) for seed, (_, _, s) in
-             done.items()}
+    walls = {seed: spent(s) for seed, (_, _, s) in done.items()}
     attempts = {seed: len(s["zone_attempts"]) for seed, (_, _, s) in done.items()
                 if "zone_attempts" in s}
-    full_walls = [s["wall_s"] for _, (_, _, s) in full_members.items() if s is not None]
+    full_walls = [spent(s) for _, (_, _, s) in full_members.items() if s is not None]
     out = {"wall_s": walls, "total_wall_s": float(sum(v for v in walls.values() if v)),
            "attempts": attempts or None}
     if full_walls and walls:
@@ -128,6 +127,14 @@ def _cost(done, full, full_members):
     if projected:
         out["full_model_projected_wall_s"] = projected
     return out
+
+
+def spent(summary):
+    """Wall seconds a run took: an automatic zone's search (every attempt, its builds
+    included), else the build and the steps."""
+    if "zone_total_wall_s" in summary:
+        return summary["zone_total_wall_s"]
+    return summary.get("wall_s", 0.0) + summary.get("build_s", 0.0)
 
 
 def _speedup(c, done, runs, full, full_members, timing):

@@ -51,7 +51,7 @@ def run(args):
     options = dict(sweep=args.sweep, velocities=args.velocities, scale=args.scale,
                    steps=args.steps, seeds=tuple(args.seeds or sp.SEEDS), bench=bench)
     out = Path(args.out)
-    medium = sp.plan(only="medium", **options) if args.only != "paper" else []
+    medium = sp.plan(only="medium", **options)      # --only says what runs, not what is shown
     if args.dry_run:
         return _dry_run(medium, options, args, out, index, bench)
     from cases.slab import study_report as report, study_table as st
@@ -59,12 +59,10 @@ def run(args):
     from yade_side import import_yade
     _prepare(out)
     import_yade(args.threads)
-    outcomes = execute(medium, out, index, args.quiet)
-    paper = []
-    if args.only != "medium":
-        choice = st.choose(st.build(medium, out, index)) if medium else None
-        paper = sp.plan(only="paper", paper_config=choice, **options)
-        outcomes.update(execute(paper, out, index, args.quiet))
+    outcomes = execute(medium, out, index, args.quiet, dry=args.only == "paper")
+    choice = st.choose(st.build(medium, out, index))
+    paper = sp.plan(only="paper", paper_config=choice, **options)
+    outcomes.update(execute(paper, out, index, args.quiet, dry=args.only == "medium"))
     runs = medium + paper
     timing = None
     if not args.no_timing:
@@ -135,11 +133,10 @@ def _dry_run(medium, options, args, out, index, bench):
     from cases.slab import study_plan as sp
     from cases.slab.study_table import build, choose
     choice = None
-    if medium and all(sp.where(r, out, index)[1] is not None for r in medium if r.when is None):
+    if all(sp.where(r, out, index)[1] is not None for r in medium if r.when is None):
         choice = choose(build(medium, out, index))
-    paper = (sp.plan(only="paper", paper_config=choice, **options) if args.only != "medium"
-             else [])
-    runs = medium + paper
+    paper = sp.plan(only="paper", paper_config=choice, **options)
+    runs = {"medium": medium, "paper": paper, None: medium + paper}[args.only]
     total = conditional = 0.0
     print(f"{'run':46s} {'steps':>6s} {'projected':>10s}  status")
     for r in runs:
