@@ -217,7 +217,25 @@ def doc(table, runs, outcomes, projected_s, sweep, images, command):
                              f"{'–' if sp is None else f'{sp:.2f}x'} per step; "
                              f"{row['goal']['why']}")
     lines += ["", "Reinforced concrete: pending (`SlabSpec` has no reinforcement option yet; "
-              "its rows join the plan when it has).", "", "## The runs", "",
+              "its rows join the plan when it has).", "", "## How it is measured", "",
+              "- A coupled model places its sensors by its own DE zone and band; the full "
+              "model's physics does not depend on the zone, so each full member records, "
+              "beside its own sensors, those of every coupled zone of its impact (the "
+              "automatic zones' final ones included) and each coupled member is judged at its "
+              "own sensors (cases/slab/probes.py).",
+              "- The per-step speed-up is timed, when the table says `timed`, on one window "
+              "of each model built afresh from its run's description, one after the other, in "
+              "CPU time (bench/study_timing.py: at medium scale 0.2 ms into the impact, at "
+              "paper scale right after the build); the runs' own wall times per step are "
+              "kept beside it (`runs`): on a loaded machine they gave 0.46-2.57 for the same "
+              "pair of models.",
+              "- The automatic zone is run on seed 1, and on seeds 2 and 3 only when seed 1 "
+              "ends clean (default sweep); its cost is every attempt's wall time.",
+              "- The default plan is chosen for about 3 h of one core (the projection below, "
+              "from bench/results.json): 10 and 40 m/s, the zones × n_b sweep at 10 m/s; "
+              "`--sweep full` runs 10, 20 and 40 m/s, the sweep at each, the default and "
+              "automatic zones on three seeds and two paper seeds.",
+              "", "## The runs", "",
               f"Projected cost of the plan on one quiet core: {projected_s / 3600:.2f} h "
               f"(bench/results.json). Each run is a `slab` run in its folder of "
               f"`results/where-coupling-pays/`.", "",
