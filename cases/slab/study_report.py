@@ -76,7 +76,8 @@ def markdown(table):
              "Per configuration: the largest nRMS of a coupled member against the full "
              "ensemble's mean history, over the largest leave-one-out nRMS of a full member "
              "(the scatter; orchestrator/verdicts.py), the damaged volume likewise (its "
-             "deviation: the ratio to the full mean less 1, in absolute value), the per-step speed-up (timed: one window of each model on CPU time, "
+             "deviation: the ratio to the full mean less 1, in absolute value), the per-step "
+             "speed-up (timed: one window of each model on CPU time, "
              "bench.worker; runs: the runs' own wall time), the wall time spent (an automatic "
              "zone's failed attempts included) and the goal (within the scatter on every "
              "sensor, nRMS and peak, and the damaged volume, and ≥ 5× cheaper per step at "
@@ -106,7 +107,7 @@ def table1(table):
     sp = row["speedup"]
     t_c = sp.get("timing_step_s", {}).get("coupled")
     t_f = sp.get("timing_step_s", {}).get("full")
-    c_step = row["cost"]["total_wall_s"] / len(row["seeds"]) / row["steps"]
+    c_step = row["s_per_step"]
     return {"velocity": paper["velocity"], "config": row["config"],
             "coupled": {"spheres": row["spheres"], "fe_nodes": row["fe_nodes"],
                         "n_b": row["layers"], "bridging_spheres": row["bridging_spheres"],

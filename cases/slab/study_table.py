@@ -8,8 +8,6 @@ cheaper per step.
 A coupled member is compared at its own sensors: the full members record them too
 (cases.slab.probes), under the plain names when the zone and band are the full model's own
 (the scale's), else as "LAYOUT/SENSOR" (layout_label)."""
-from pathlib import Path
-
 import numpy as np
 
 from cases.slab.compare import Run
@@ -61,7 +59,7 @@ def build(runs, out, index=None, timing=None):
             full = {seed: Run(f) for seed, (r, f, s) in found[full_cfg].items() if s is not None}
         first = next(iter(configs))
         impact = {"group": group, "scale": first.scale, "velocity": first.velocity,
-                  "full": _full_figures(full_cfg, found.get(full_cfg, {}), full, timing),
+                  "full": _full_figures(full_cfg, found.get(full_cfg, {}), full),
                   "configs": []}
         for c, members in found.items():
             if c.model != "full":
@@ -70,7 +68,7 @@ def build(runs, out, index=None, timing=None):
     return {"impacts": impacts}
 
 
-def _full_figures(cfg, members, full, timing):
+def _full_figures(cfg, members, full):
     if cfg is None:
         return {"seeds": [], "missing": []}
     summaries = {seed: s for seed, (_, _, s) in members.items() if s is not None}
@@ -90,7 +88,7 @@ def config_row(c, members, full, full_cfg, found, timing):
            "full_width": None if c.zone == "auto" else c.defaults().full_width,
            "seeds": sorted(done), "missing": sorted(set(members) - set(done)),
            "folders": {seed: str(f) for seed, (_, f, _) in done.items()}}
-    row["cost"] = _cost(done, full, found.get(full_cfg, {}))
+    row["cost"] = _cost(done, found.get(full_cfg, {}))
     limit = {seed for seed, (_, _, s) in done.items() if s.get("zone_outcome") == "limit"}
     runs = {seed: Run(f) for seed, (_, f, s) in done.items() if seed not in limit}
     row["zone_limit_seeds"] = sorted(limit)
@@ -101,17 +99,18 @@ def config_row(c, members, full, full_cfg, found, timing):
         row.update(spheres=_mean([x["n_spheres"] for x in s]),
                    fe_nodes=_mean([x["n_fe_nodes"] for x in s]),
                    bridging_spheres=_mean([x["n_bridging_spheres"] for x in s]),
-                   steps=s[0]["steps"], dt=s[0]["dt"])
+                   steps=s[0]["steps"], dt=s[0]["dt"],
+                   s_per_step=_mean([x["s_per_step"] for x in s]))
         if full:
             full_spheres = _mean([r.summary["n_spheres"] for r in full.values()])
             row["sphere_ratio"] = full_spheres / row["spheres"]
-    row["speedup"] = _speedup(c, done, runs, full, found.get(full_cfg, {}), timing)
+    row["speedup"] = _speedup(done, runs, full, found.get(full_cfg, {}), timing)
     row["accuracy"] = _accuracy(runs, {seed: done[seed][0] for seed in runs}, full)
     row["goal"] = goal(c.scale, row, limit)
     return row
 
 
-def _cost(done, full, full_members):
+def _cost(done, full_members):
     """Wall seconds spent: every member, an automatic zone's failed attempts included."""
     walls = {seed: spent(s) for seed, (_, _, s) in done.items()}
     attempts = {seed: len(s["zone_attempts"]) for seed, (_, _, s) in done.items()
@@ -137,7 +136,7 @@ def spent(summary):
     return summary.get("wall_s", 0.0) + summary.get("build_s", 0.0)
 
 
-def _speedup(c, done, runs, full, full_members, timing):
+def _speedup(done, runs, full, full_members, timing):
     """Per-step speed-up: from the one-window timing when it holds both models, else from
     the runs' own time per step (each figure says where it comes from)."""
     out = {}
@@ -311,7 +310,3 @@ def _mean(values):
 def _first(summaries, key):
     return next((s.get(key) for s in summaries.values()), None)
 
-
-def folders_of(table):
-    return [Path(f) for i in table["impacts"] for row in i["configs"] for f in
-            row["folders"].values()]
