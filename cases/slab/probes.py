@@ -18,8 +18,9 @@ def probe_name(label, sensor):
 def layout_sensors(model, spec, grid):
     """(names, sphere indices, positions) of the full `model`'s sensors for the DE zone of
     `grid` and the band of `spec` (its layers): the spheres nearest the layout's points, and
-    for "fe_node" the sphere nearest the grid node nearest the bridging sphere (SlabModel's rule; in-plane size and layers through
-    the thickness are those of every layout of the slab)."""
+    for "fe_node" the sphere nearest the grid node nearest the bridging sphere (SlabModel's
+    rule; in-plane size and layers through the thickness are those of every layout of the
+    slab)."""
     pos = model.slab.ref_pos
     points = sensor_points(spec, grid)
     idx = [int(np.argmin(np.linalg.norm(pos - p, axis=1))) for p in points.values()]

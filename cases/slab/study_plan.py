@@ -22,7 +22,8 @@ per step of each model in the impact window, one thread): per step of a coupled 
 YADE's cost per sphere (incl. output) in the benchmark's coupled model × spheres + the
 coupling's per bridging sphere × bridging spheres + the FE's per node × nodes, with the counts
 of each zone estimated from its share of the slab (within 2 % of the benchmark's models). An
-automatic-zone search costs AUTO_OVER_FULL × the full run (docs/auto-zone.md). A loaded core is slower by its load factor.
+automatic-zone search costs AUTO_OVER_FULL × the full run (docs/auto-zone.md). A loaded core
+is slower by its load factor.
 """
 import json
 import math
