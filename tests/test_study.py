@@ -325,3 +325,28 @@ def test_plots_and_page_follow_the_table(forty):
     assert "**None at this resolution.**" in text and "6.00x per step" in text
     md = report.markdown(table)
     assert "| zone-0.9m-strip-nb3 | 1 | 6 | 1.67 | 6.00 (runs) |" in md
+
+
+@pytest.mark.slow
+def test_a_full_run_with_probes_records_what_a_full_run_of_that_zone_records(tmp_path):
+    """The full model's physics does not depend on the coupled zone: the probes of a wider
+    strip with one layer equal, bit for bit, the sensors of a full run described with it."""
+    from cases.slab.geometry import slab_grid
+    from cases.slab.model import run
+    from cases.slab.probes import run_full
+    from orchestrator.run.outputs import read_sensors
+    from yade_side import import_yade
+    import_yade(1)
+    base = sp.Config("small", 40.0, "full").spec(1, 80)
+    wide = sp.Config("small", 40.0, "coupled", de_zone=1.2, full_width=True, layers=1).spec(1, 80)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    run_full(base, {"wide": (wide, slab_grid(wide))}, tmp_path / "a", quiet=True)
+    run(wide, "full", tmp_path / "b", quiet=True)
+    t_a, names_a, h_a = read_sensors(tmp_path / "a" / "sensors.csv")
+    t_b, names_b, h_b = read_sensors(tmp_path / "b" / "sensors.csv")
+    assert names_b == NAMES and np.array_equal(t_a, t_b)
+    assert np.array_equal(h_a[:, 0], h_b[:, 0])
+    for k, name in enumerate(NAMES[1:], start=1):
+        assert np.array_equal(h_a[:, names_a.index(f"wide/{name}")], h_b[:, k]), name
+    assert np.abs(h_b).max() > 0

@@ -47,12 +47,15 @@ def add_probes(model, layouts):
     return names
 
 
-def run_full(spec, layouts, out, quiet=False, start=None):
+def run_full(spec, layouts, out, quiet=False, start=None, resume=False):
     """The full slab of `spec` with the probes of `layouts`, run into `out` (made by
-    `start()` once the model is built, if given); returns its summary."""
+    `start()` once the model is built, if given), or carried on from its checkpoint there
+    (resume: refused if it was written with other probes); returns its summary."""
     from cases.slab.model import SlabModel, run_built
+    from orchestrator.run.inputs import spec_inputs
     m = SlabModel(spec, "full")
-    add_probes(m, layouts)
+    names = add_probes(m, layouts)
     if start is not None:
         out = start()
-    return run_built(m, out, quiet)
+    return run_built(m, out, quiet, resume, inputs={**spec_inputs(spec, "full"),
+                                                   "sensors": names})

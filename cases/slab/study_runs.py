@@ -86,7 +86,7 @@ def execute(runs, out, index, quiet=False, log=print, dry=False):
             continue
         log(f"{tag}: running")
         try:
-            summary = run_one(r, folder, layouts, quiet)
+            summary = run_one(r, folder, layouts, quiet, log)
             outcomes[r.folder] = Outcome(Path(folder), summary, "ran")
         except (ValueError, BlowUp, StepFailed) as e:      # bad input or a run gone wrong
             settle_failure(f"error: {e}")
@@ -95,19 +95,35 @@ def execute(runs, out, index, quiet=False, log=print, dry=False):
     return outcomes
 
 
-def run_one(r, folder, layouts, quiet):
-    """One planned run into `folder` (an unfinished study folder there is replaced)."""
+def run_one(r, folder, layouts, quiet, log=print):
+    """One planned run into `folder`: carried on from the checkpoint an interrupted study left
+    there (a fixed zone or a full run with the same probes), else from the start (an
+    unfinished study folder there is replaced)."""
     from cases.slab.model import run
     from cases.slab.probes import run_full
-    from orchestrator.run.folder import forget, prepare_out
+    from orchestrator.run.folder import forget, prepare_out, resume_folder
+    from orchestrator.run.restart import read_meta
     spec = r.spec()
-    start = lambda: prepare_out(folder, force=True)
-    if r.config.model == "full":
-        summary = run_full(spec, layouts, folder, quiet, start=start)
-    else:
-        summary = run(spec, "coupled", folder, quiet, start=start)
+    resume = r.config.zone != "auto"
+    try:
+        read_meta(folder)
+    except ValueError:                  # no checkpoint there
+        resume = False
+    for carry_on in ([True, False] if resume else [False]):
+        start = None if carry_on else (lambda: prepare_out(folder, force=True))
+        if carry_on:
+            resume_folder(folder)
+        try:
+            if r.config.model == "full":
+                summary = run_full(spec, layouts, folder, quiet, start=start, resume=carry_on)
+            else:
+                summary = run(spec, "coupled", folder, quiet, resume=carry_on, start=start)
+            break
+        except ValueError as e:
+            if not carry_on:
+                raise
+            log(f"{folder}: its checkpoint is of another run ({e}); starting again")
     forget()
     if complete(folder, r) is None:
-        raise RuntimeError(f"{folder}: the run ended without its results")
+        raise ValueError(f"{folder}: the run ended without its results")
     return summary
-
