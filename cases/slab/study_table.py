@@ -178,8 +178,11 @@ def _accuracy(runs, planned, full):
             return {"judged": False,
                     "why": f"the full run(s) of seed(s) {lacking} have no sensors at this "
                            f"zone's ({label or 'own'}): rerun them with its probes"}
-        hist = ensemble.histories({s: z(r, cols) for s, r in full.items()},
-                                  {s: z(r, names) for s, r in members.items()}, names)
+        try:
+            hist = ensemble.histories({s: z(r, cols) for s, r in full.items()},
+                                      {s: z(r, names) for s, r in members.items()}, names)
+        except ValueError as e:          # e.g. no common time window
+            return {"judged": False, "why": f"not comparable with the full runs: {e}"}
         v = (verdicts.within_full_scatter(hist) if len(full) >= verdicts.MIN_FULL_MEMBERS
              else None)
         for n in names:
