@@ -122,7 +122,8 @@ def table1(table):
                          "timed": None if t_f is None else PAPER_STEPS * t_f,
                          "run": PAPER_STEPS * f["s_per_step"][0] if f.get("s_per_step")
                          else None}},
-            "speedup": sp, "goal": row["goal"]}
+            "speedup": sp, "goal": row["goal"],
+            "absolute_goals": (row["accuracy"] or {}).get("absolute_goals")}
 
 
 def table1_lines(t):
@@ -258,6 +259,9 @@ def doc(table, runs, outcomes, projected_s, sweep, images, command):
     if t1:
         lines += table1_lines(t1)
         lines.append(f"Paper pair: {t1['goal']['why']}.")
+        for goals in t1.get("absolute_goals") or []:
+            lines.append("Against the full run, the slab issue's goals: " + ", ".join(
+                f"{k.replace('_', ' ')}: {_yes(v)}" for k, v in goals.items()) + ".")
     else:
         lines.append("Paper scale: not run yet.")
     return "\n".join(lines) + "\n"
