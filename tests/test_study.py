@@ -350,3 +350,22 @@ def test_a_full_run_with_probes_records_what_a_full_run_of_that_zone_records(tmp
     for k, name in enumerate(NAMES[1:], start=1):
         assert np.array_equal(h_a[:, names_a.index(f"wide/{name}")], h_b[:, k]), name
     assert np.abs(h_b).max() > 0
+
+
+@pytest.mark.slow
+def test_an_interrupted_run_of_the_study_carries_on_from_its_checkpoint(tmp_path):
+    """A coupled run that left a checkpoint at step 40 of 60 (its results removed, as if it
+    had been stopped there) is carried on, not started again, and ends as the whole run did."""
+    from cases.slab.study_runs import run_one
+    from orchestrator.run.outputs import read_sensors
+    r = sp.Planned(sp.Config("small", 40.0, "coupled"), 1, 60)
+    folder = tmp_path / r.folder
+    assert main(["slab", "--model", "coupled", "--scale", "small", "--steps", "60",
+                 "--checkpoint-every", "20", "--out", str(folder), "--quiet"]) == 0
+    _, _, whole = read_sensors(folder / "sensors.csv")
+    for name in ("summary.json", "sensors.csv", "damage.npz"):
+        (folder / name).unlink()
+    run_one(r, folder, {}, quiet=True, log=lambda line: None)
+    assert "resumed from the checkpoint of step 40" in (folder / "run.log").read_text()
+    _, _, carried_on = read_sensors(folder / "sensors.csv")
+    assert np.array_equal(whole, carried_on)
