@@ -8,7 +8,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
 .PHONY: setup setup-paraview setup-image-build setup-slurm run validate render test test-slow \
-        docker-test bench wave1d-study clean
+        docker-test bench wave1d-study study clean
 
 # Idempotent: re-runs apt only when the package list changed. Without Debian's recommended
 # packages (about 1 GB more: LLVM, valgrind, numba, docs; nothing the stack imports).
@@ -88,6 +88,13 @@ wave1d-study: setup
 # bench/results.json and docs/benchmarks.md (about 10 min; BENCH_ARGS=--quick: 1-2 min)
 bench: setup
 	$(PY) -m bench $(BENCH_ARGS)
+
+# Where coupling pays (docs/where-coupling-pays.md): the coupled slab against the full
+# ensembles at medium scale, 10 and 40 m/s, zones x bridging layers, and the paper-scale pair;
+# about 3 h of one core (STUDY_ARGS="--dry-run" prints the plan and its projected cost;
+# "--reuse-ensembles results/slab-medium" reuses make validate's runs; "--sweep full": 6.4 h).
+study: setup
+	$(PY) -m orchestrator study $(STUDY_ARGS)
 
 clean:
 	rm -rf results .pytest_cache $(STAMP)

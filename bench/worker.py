@@ -1,10 +1,11 @@
 """Measures one slab model in its own process (peak memory and OMP_NUM_THREADS are per process).
 
 Run by bench.run as `python -m bench.worker '<json task>'` with OMP_NUM_THREADS set; prints
-one JSON line. Task keys: scale, model ("full" | "coupled"), warmup, steps, impact_after_s (a
-second window of `steps` steps that starts this long after the start, during the impact), and
-for the coupled model `variants` (coupling variants to time, e.g. ["diagonal", "full"]) and
-`output` (time the run loop's output work).
+one JSON line. Task keys: scale, model ("full" | "coupled"), warmup, steps, optionally spec
+(the fields of a SlabSpec, instead of the scale's defaults) and zone_cells (a DE zone of
+in-plane grid cells), impact_after_s (a second window of `steps` steps that starts this long
+after the start, during the impact), and for the coupled model `variants` (coupling variants
+to time, e.g. ["diagonal", "full"]) and `output` (time the run loop's output work).
 """
 import json
 import math
@@ -124,9 +125,9 @@ def run(task):
     threads = int(os.environ.get("OMP_NUM_THREADS", "1"))
     import_yade(threads=threads)
     use_clock(threads)
-    spec = SlabSpec(scale=task["scale"])
+    spec = SlabSpec(**task["spec"]) if "spec" in task else SlabSpec(scale=task["scale"])
     t0 = perf_counter()
-    m = SlabModel(spec, task["model"])
+    m = SlabModel(spec, task["model"], _zone(spec, task.get("zone_cells")))
     result = {"task": task, "build_s": perf_counter() - t0, "n_spheres": m.sphere_count(),
               "n_bridging_spheres": len(m.bridge_index),
               "n_fe_nodes": 0 if m.fe is None else len(m.fe.nodes), "dt": m.dt}
@@ -149,6 +150,15 @@ def run(task):
                 result["variants"][variant] = _time_variant(m, variant, task)
     result["peak_rss_end_bytes"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return result
+
+
+def _zone(spec, cells):
+    """The slab grid with a DE zone of in-plane cells (an automatic zone's final one), or
+    None: the spec's box."""
+    if cells is None:
+        return None
+    from cases.slab.zone import cells_grid
+    return cells_grid(spec, cells)
 
 
 def _variant_summary(m, timing):

@@ -94,10 +94,14 @@ def within_full_scatter(histories, damage=None):
         out["sensors"][name] = {
             "nrms": _verdict(coupled["nrms"], full["nrms_leave_one_out"], n_full), "peak": peak}
     if damage is not None:
-        n = len(damage["full_seeds"])
-        check_members(n, len(damage["coupled_seeds"]))
-        out["damage"] = {
-            key: _verdict(_deviations(damage["coupled_vs_full_mean"][key]["ratio"]),
+        out["damage"] = damage_within_full_scatter(damage)
+    return out
+
+
+def damage_within_full_scatter(damage):
+    """The damage figures' verdicts of within_full_scatter alone: {figure: verdict}."""
+    n = len(damage["full_seeds"])
+    check_members(n, len(damage["coupled_seeds"]))
+    return {key: _verdict(_deviations(damage["coupled_vs_full_mean"][key]["ratio"]),
                           _deviations(full["ratio_leave_one_out"]), n)
             for key, full in damage["full"].items()}
-    return out

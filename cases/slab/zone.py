@@ -21,6 +21,15 @@ def zone_grid(base, mask):
     return Grid(base.h, base.n, lo.min(axis=0), hi.max(axis=0), (0, 1), cells=mask)
 
 
+def cells_grid(spec, cells):
+    """The slab grid of `spec` with the DE zone of in-plane cells `cells` (grid indices, as
+    summary.json's zone_final records them)."""
+    base = slab_grid(spec)
+    mask = np.zeros(cell_grid(base).shape, bool)
+    mask[tuple(np.asarray(cells, int).reshape(-1, 2).T)] = True
+    return zone_grid(base, mask)
+
+
 def _centred(spec, side, full_width, name):
     """Mask of the centred zone slab_grid makes of a DE zone of `side` m."""
     try:

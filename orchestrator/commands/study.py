@@ -1,0 +1,179 @@
+"""`study`: where coupling pays (issue 17). The accuracy-cost map of the coupled slab at medium
+scale (cases.slab.study_plan says which runs), the paper-scale pair of the configuration it
+says pays, and the table, plots and docs page written from the run folders. Runs already
+finished with the same description are reused, so the study resumes where it stopped."""
+import argparse
+
+from orchestrator.commands._options import add_threads
+
+NAME = "study"
+HELP = ("where coupling pays: the coupled slab's error against the full scatter and its "
+        "speed-up, 10-40 m/s at medium scale, and the paper-scale pair (make study)")
+OUT = "results/where-coupling-pays"
+DOC = "docs/where-coupling-pays.md"
+
+
+def configure(p):
+    p.add_argument("--sweep", choices=("default", "full"), default="default",
+                   help="default: the plan that fits about 3 h of one core; full: every "
+                        "configuration at every velocity and seed (about 6.4 h)")
+    p.add_argument("--out", default=OUT, help=f"the study's folder (default {OUT})")
+    p.add_argument("--reuse-ensembles", nargs="+", default=[], metavar="DIR",
+                   help="folders of finished slab runs to reuse when they have the same "
+                        "description, e.g. results/slab-medium of make validate")
+    p.add_argument("--only", choices=("medium", "paper"), default=None,
+                   help="only the medium map, or only the paper pair")
+    p.add_argument("--velocities", type=_floats, default=None, metavar="V,V,...",
+                   help="impact velocities (m/s) among 10, 20, 40 (default: 10,40; full "
+                        "sweep: 10,20,40)")
+    p.add_argument("--dry-run", action="store_true",
+                   help="print the plan, one line per run with its projected cost, and stop")
+    p.add_argument("--no-timing", action="store_true",
+                   help="no one-window timing of the models: speed-ups from the runs' own "
+                        "wall times")
+    p.add_argument("--doc", default=DOC, help=f"the page written from the table (default {DOC})")
+    add_threads(p)
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    # the machinery at a small scale and a few steps, for its tests
+    p.add_argument("--scale", default="medium", help=argparse.SUPPRESS)
+    p.add_argument("--steps", type=int, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--seeds", type=_ints, default=None, help=argparse.SUPPRESS)
+
+
+def run(args):
+    from pathlib import Path
+    from cases.slab import study_plan as sp
+    if args.scale not in sp.LARGER_ZONE:
+        raise ValueError(f"study: --scale must be one of {', '.join(sp.LARGER_ZONE)}, got "
+                         f"{args.scale!r}")
+    bench = sp.load_bench()
+    index = sp.ensemble_index(args.reuse_ensembles) if args.reuse_ensembles else {}
+    options = dict(sweep=args.sweep, velocities=args.velocities, scale=args.scale,
+                   steps=args.steps, seeds=tuple(args.seeds or sp.SEEDS), bench=bench)
+    out = Path(args.out)
+    medium = sp.plan(only="medium", **options)      # --only says what runs, not what is shown
+    if args.dry_run:
+        return _dry_run(medium, options, args, out, index, bench)
+    from cases.slab import study_report as report, study_table as st
+    from cases.slab.study_runs import execute
+    from yade_side import import_yade
+    _prepare(out)
+    import_yade(args.threads)
+    outcomes = execute(medium, out, index, args.quiet, dry=args.only == "paper")
+    choice = st.choose(st.build(medium, out, index))
+    paper = sp.plan(only="paper", paper_config=choice, **options)
+    outcomes.update(execute(paper, out, index, args.quiet, dry=args.only == "medium"))
+    runs = medium + paper
+    timing = None
+    if not args.no_timing:
+        timing = _timing(runs, outcomes, out)
+    table = st.build(runs, out, index, timing)
+    table["table1"] = report.table1(table)
+    projected = _projected(runs, bench)
+    table["plan"] = {"sweep": args.sweep, "projected_s": projected, "budget_s": sp.BUDGET_S,
+                     "runs": [{"folder": r.folder, "seed": r.seed, "steps": r.spec().steps,
+                               "status": outcomes[r.folder].status} for r in runs]}
+    images = _plots(table, out, Path(args.doc).parent if args.doc else None)
+    command = "python3 -m orchestrator study" + ("" if args.sweep == "default"
+                                                 else f" --sweep {args.sweep}")
+    text = report.doc(table, runs, outcomes, projected, args.sweep, images, command)
+    report.write(table, out, Path(args.doc) if args.doc else None, text)
+    for impact, row in report.qualifying(table):
+        print(f"qualifies: {report.impact_title(impact)}, {row['config']}: {row['goal']['why']}")
+    if not report.qualifying(table):
+        print("no configuration qualifies at this resolution (table.md has the figures)")
+    print(f"results in {out}" + (f"; page {args.doc}" if args.doc else ""))
+    return 0
+
+
+def _prepare(out):
+    """The study's folder: made, or an earlier one of the project's carried on."""
+    from common.files import write_text
+    from orchestrator.run.folder import MARKER, check_out
+    if out.exists() and any(out.iterdir()) and not (out / MARKER).is_file():
+        raise ValueError(f"study: --out {out} exists and was not written by this project (no "
+                         f"{MARKER}): choose another folder")
+    check_out(out, force=True)
+    out.mkdir(parents=True, exist_ok=True)
+    if not (out / MARKER).is_file():
+        write_text(out / MARKER, "results folder written by yade-fenicsx-coupling\n")
+
+
+def _timing(runs, outcomes, out):
+    import json
+    from bench.study_timing import time_models
+    path = out / "timing.json"
+    previous = json.loads(path.read_text()) if path.is_file() else None
+    return time_models(runs, outcomes, path, previous)
+
+
+def _projected(runs, bench):
+    from cases.slab import study_plan as sp
+    return (sum(sp.run_cost(r, bench) for r in runs if r.when is None)
+            + sp.timing_cost(runs, bench))
+
+
+def _plots(table, out, doc_dir):
+    """One PNG per impact in `out`, and a copy beside the page; {group: path from the page}."""
+    from cases.slab.study_report import plot_impact
+    images = {}
+    for impact in table["impacts"]:
+        if impact["scale"] == "paper":
+            continue
+        name = f"where-coupling-pays-{impact['group']}.png"
+        plot_impact(impact, out / f"{impact['group']}.png")
+        if doc_dir is not None:
+            plot_impact(impact, doc_dir / name)
+            images[impact["group"]] = name
+    return images
+
+
+def _dry_run(medium, options, args, out, index, bench):
+    """The plan, one line per run: folder, steps, projected cost, and what is done."""
+    from cases.slab import study_plan as sp
+    from cases.slab.study_table import build, choose
+    choice = None
+    if all(sp.where(r, out, index)[1] is not None for r in medium if r.when is None):
+        choice = choose(build(medium, out, index))
+    paper = sp.plan(only="paper", paper_config=choice, **options)
+    runs = {"medium": medium, "paper": paper, None: medium + paper}[args.only]
+    total = conditional = 0.0
+    print(f"{'run':46s} {'steps':>6s} {'projected':>10s}  status")
+    for r in runs:
+        cost = sp.run_cost(r, bench)
+        folder, summary = sp.where(r, out, index)
+        status = ("done" if summary is not None and folder == out / r.folder else
+                  f"reused: {folder}" if summary is not None else "to run")
+        if r.when is not None:
+            status += f" (only if {r.when} ends clean)"
+            conditional += cost
+        elif summary is None:
+            total += cost
+        if r.chosen:
+            status += " (zone chosen by the medium map; shown: the paper scale's own)"
+        print(f"{r.folder:46s} {r.spec().steps:6d} {cost:9.0f}s  {status}")
+    timing = sp.timing_cost(runs, bench)
+    print(f"{'one-window timing of each model':46s} {'':6s} {timing:9.0f}s")
+    every = sum(sp.run_cost(r, bench) for r in runs if r.when is None) + timing
+    print(f"projected on one quiet core (bench/results.json): {every / 3600:.2f} h for the "
+          f"plan, {(total + timing) / 3600:.2f} h still to run, +{conditional / 3600:.2f} h if "
+          f"the automatic zones end clean; budget {sp.BUDGET_S / 3600:.1f} h")
+    if not sp.reinforced_available():
+        print("reinforced concrete: pending (SlabSpec has no `reinforced` field yet)")
+    return 0
+
+
+def _floats(text):
+    try:
+        return [float(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a comma-separated list of numbers, got {text!r}") \
+            from None
+
+
+def _ints(text):
+    try:
+        return [int(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a comma-separated list of integers, got {text!r}") \
+            from None
