@@ -26,10 +26,12 @@ def count(text):
     return value
 
 
-def add_threads(p):
-    p.add_argument("--threads", type=count, default=None,
-                   help="YADE OpenMP threads (default: OMP_NUM_THREADS, else every core; "
-                        "only 1 gives bit-identical results and restarts)")
+def add_threads(p, default=None):
+    """--threads; default None: OMP_NUM_THREADS, else every core (yade_side.import_yade)."""
+    text = "OMP_NUM_THREADS, else every core" if default is None else default
+    p.add_argument("--threads", type=count, default=default,
+                   help=f"YADE OpenMP threads (default: {text}; only 1 gives bit-identical "
+                        f"results and restarts)")
 
 
 def add_out(p, what="results folder", required=True):

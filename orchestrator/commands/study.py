@@ -32,7 +32,7 @@ def configure(p):
                    help="no one-window timing of the models: speed-ups from the runs' own "
                         "wall times")
     p.add_argument("--doc", default=DOC, help=f"the page written from the table (default {DOC})")
-    add_threads(p)
+    add_threads(p, default=1)     # one run at a time, bit-identical: the budget is one core
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     # the machinery at a small scale and a few steps, for its tests
     p.add_argument("--scale", default="medium", help=argparse.SUPPRESS)
