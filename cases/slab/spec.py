@@ -42,7 +42,7 @@ class Scale:
 #   96.7 % of the medium one's;
 # - gf_cpm, gf_tensile_strength: `calibrate --shear-contrib 0.1`, relDuctility at its lower
 #   bound 0.1 (docs/calibration.md, "Fracture energy"), measured on today's packings: E 31.00 /
-#   31.00 GPa, fc 29.89 / 30.66 MPa, Gf 483 / 284 J/m² (the target 135 J/m² is missed); no set
+#   31.00 GPa, fc 29.89 / 30.89 MPa, Gf 483 / 282 J/m² (the target 135 J/m² is missed); no set
 #   at paper scale.
 SCALES = {
     "small": Scale(0.025, 3300, 17.2e9,
