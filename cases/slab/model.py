@@ -205,7 +205,8 @@ def _post_run_checks(m, damage, info):
     if m.fe is None:
         from cases.slab.variants import link_record
         pairs, omega = m.damage.link_omega()
-        pairs, omega = pairs[(pairs >= 0).all(axis=1)], omega[(pairs >= 0).all(axis=1)]
+        slab_links = (pairs >= 0).all(axis=1)       # not the impactor's
+        pairs, omega = pairs[slab_links], omega[slab_links]
         ref = m.slab.ref_pos
         outside = m.bridging.zone.depth(0.5 * (ref[pairs[:, 0]] + ref[pairs[:, 1]])) > 0
         info["links_outside_de_zone"] = link_record(omega, outside)

@@ -148,7 +148,8 @@ class SlabSpec:
     compressive_strength: float = key(31e6, number, positive, section="material",
                                       help="fc (Pa), for the post-run FE check")
     tensile_strength: float = key(None, number, positive, section="material",
-                                  help="ft (Pa), for the post-run FE check; default per scale")
+                                  help="ft (Pa), for the post-run FE check; default per scale "
+                                       "and concrete")
     relaxation_rule: str = None      # set by relaxation "auto": what the rule took r from
 
     def __post_init__(self):
