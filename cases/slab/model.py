@@ -205,7 +205,7 @@ def _post_run_checks(m, damage, info):
     if m.fe is None:
         from cases.slab.variants import link_record
         pairs, omega = m.damage.link_omega()
-        slab_links = (pairs >= 0).all(axis=1)       # not the impactor's
+        slab_links = (pairs >= 0).all(axis=1)       # links between two slab spheres
         pairs, omega = pairs[slab_links], omega[slab_links]
         ref = m.slab.ref_pos
         outside = m.bridging.zone.depth(0.5 * (ref[pairs[:, 0]] + ref[pairs[:, 1]])) > 0
