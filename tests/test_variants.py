@@ -44,8 +44,8 @@ def fake_run(folder, model="full", seed=1, concrete="gf", links=True):
              positions=np.zeros((4, 3)), radius=np.full(4, R),
              in_de_zone=np.array([True, True, False, False]), slab_index=np.arange(4))
     summary = {"model": model, "seed": seed,
-               "spec": {"scale": "small", "seed": seed, "concrete": concrete, "de_zone": 0.6,
-                        "full_width": True},
+               "spec": {"scale": "small", "seed": seed, "de_zone": 0.6, "full_width": True,
+                        **({} if concrete is None else {"concrete": concrete})},
                "damage": {"damaged_volume_m3": 1.75 * VOLUME}}
     if links:
         summary["links_outside_de_zone"] = link_record([0.0, 0.5, 1.0, 0.2],
@@ -57,7 +57,7 @@ def fake_run(folder, model="full", seed=1, concrete="gf", links=True):
 def test_measure_gives_the_known_figures(tmp_path):
     fake_run(tmp_path / "ens" / "seed-2", seed=2)
     fake_run(tmp_path / "ens" / "seed-1", seed=1)
-    fake_run(tmp_path / "old", concrete="plain", links=False)
+    fake_run(tmp_path / "old", concrete=None, links=False)     # before the choice: plain
     rows = measure_folders([tmp_path / "ens", tmp_path / "old"])
     assert [(r["seed"], r["variant"]) for r in rows] == [(1, "gf"), (2, "gf"), (1, "plain")]
     r = rows[0]
@@ -131,3 +131,16 @@ def test_the_case_file_key_is_material_concrete(tmp_path):
                     'concrete = "rc"\n')
     with pytest.raises(CaseError, match="material.concrete = 'rc': expected one of"):
         load_case(path)
+
+
+def test_compare_refuses_runs_of_two_concretes(tmp_path):
+    """A coupled gf run is not compared with a full plain one; a run made before the concrete
+    choice existed is plain."""
+    from cases.slab.compare import load
+    fake_run(tmp_path / "full-old", concrete=None)
+    fake_run(tmp_path / "coupled-gf", model="coupled", concrete="gf")
+    fake_run(tmp_path / "coupled-plain", model="coupled", concrete="plain")
+    with pytest.raises(ValueError, match="members differ in concrete: 'plain' .* vs 'gf'"):
+        load([tmp_path / "full-old"], [tmp_path / "coupled-gf"])
+    full, coupled = load([tmp_path / "full-old"], [tmp_path / "coupled-plain"])
+    assert full[1].spec["concrete"] == coupled[1].spec["concrete"] == "plain"

@@ -63,7 +63,7 @@ def measure(run):
 
 def variant(spec):
     """The variant's name: the concrete, '+ reinforced' when the run had bars."""
-    name = spec.get("concrete", "plain")
+    name = spec["concrete"]
     return f"{name} + reinforced" if spec.get("reinforced") else name
 
 
