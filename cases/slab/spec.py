@@ -36,7 +36,8 @@ class Scale:
 #   uniaxial test; 12.5 diameters like 24.9 GPa;
 # - cpm: `python3 -m orchestrator calibrate --scale S` on a 0.56 × 0.56 × 0.28 m piece of the
 #   slab's packing, broken links deleted (E 31.02 / 31.00 / 30.98 GPa, fc 30.90 / 31.02 /
-#   30.90 MPa);
+#   30.90 MPa), on the packings of YADE's memo; on today's deterministic ones small and medium
+#   measure E 26.54 / 29.58 GPa, fc 28.36 / 28.63 MPa (docs/calibration.md: to be refitted);
 # - de_zone, full_width: at 40 m/s damage reaches the free edges y = 0, 2 within 5 ms; a strip
 #   x ∈ [0.83, 1.67] m holds 98.9 % of the full small model's damaged volume, x ∈ [0.8, 1.7] m
 #   96.7 % of the medium one's;
