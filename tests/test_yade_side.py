@@ -5,7 +5,7 @@ import pytest
 from yade_side import import_yade
 from yade_side.bulk import BodySet, quaternion_product, rotation_quaternion
 from yade_side.chain import build_chain
-from yade_side.damage import LinkDamage, keep_links_elastic, link_damage
+from yade_side.damage import LinkDamage, keep_links_elastic
 from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
 
 yade = import_yade()
@@ -176,9 +176,29 @@ def test_damage_counts_broken_over_initial_links():
         O.step()
     assert dmg.update().tolist() == [0.0, 0.0, 0.5, 1.0]
     assert dmg.broken_links() == 1
-    # the broken link is gone (ω > 0.99); the two others were never strained
-    assert link_damage(lambda p: np.ones(len(p), bool)).tolist() == [0.0, 0.0]
-    assert link_damage(lambda p: p[:, 0] > 0.045).size == 0
+    # the broken link is gone (ω > 0.99) and counts as 1; the two others were never strained
+    pairs, omega = dmg.link_omega()
+    assert sorted(zip(map(tuple, np.sort(pairs, axis=1).tolist()), omega.tolist())) == [
+        ((0, 1), 0.0), ((1, 2), 0.0), ((2, 3), 1.0)]
+
+
+def test_link_omega_leaves_out_links_of_unmeasured_spheres():
+    """Two chains of 2 (links 0-1, 2-3), only the first measured; then the first measured alone
+    with its partner unmeasured: that link's far end is -1."""
+    reset_scene()
+    from yade import utils
+    mat = concrete()
+    ids = O.bodies.append([utils.sphere((x, 0.0, 0.0), 0.01, material=mat)
+                           for x in (0.0, 0.02, 0.1, 0.12)])
+    cpm_engines()
+    create_cohesive_links()
+    first = LinkDamage(ids[:2])
+    first.record_initial()
+    assert [p.tolist() for p in first.link_omega()] == [[[0, 1]], [0.0]]
+    one = LinkDamage(ids[1:2])
+    one.record_initial()
+    pairs, omega = one.link_omega()
+    assert sorted(pairs[0].tolist()) == [-1, 0] and omega.tolist() == [0.0]
 
 
 def test_worst_link_reads_each_spheres_most_damaged_link():

@@ -39,10 +39,8 @@ class LinkDamage:
 
     def _count(self, links):
         counts = np.zeros(len(self.ids), int)
-        for column in links.T:
-            inside = column < len(self._index)
-            local = self._index[column[inside]]
-            np.add.at(counts, local[local >= 0], 1)
+        for column in self._local(links).T:
+            np.add.at(counts, column[column >= 0], 1)
         return counts
 
     def intact(self):
@@ -55,22 +53,47 @@ class LinkDamage:
         return np.divide(broken, self.initial, out=np.zeros(len(self.ids)),
                          where=self.initial > 0)
 
-    def worst_link(self):
-        """Per sphere, the largest damage ω of its initial links, a broken (deleted) one
-        counting as 1; one walk over O.interactions."""
-        pairs, omega = [], []
+    def link_omega(self):
+        """(pairs, omega) of the initial links of the measured spheres: pairs (n, 2) the
+        indices of their two spheres in `ids` (-1 for an end that is not measured), omega their
+        CPM damage ω now, a broken link (ω >= BROKEN_OMEGA: deleted, or about to be) counting
+        as 1; one walk over O.interactions."""
+        now, now_omega = [], []
         for i in self._O.interactions:
             phys = i.phys
             if phys is not None and phys.isCohesive:
-                pairs.append((i.id1, i.id2))
-                omega.append(phys.omega)
-        pairs, omega = np.array(pairs, int).reshape(-1, 2), np.array(omega, float)
+                now.append((i.id1, i.id2))
+                now_omega.append(phys.omega)
+        now = np.array(now, int).reshape(-1, 2)
+        local = self._local(self._links)
+        mine = (local >= 0).any(axis=1)
+        links = self._links[mine]
+        # a link is its sorted pair of ids, as one integer; every link now was an initial one
+        base = int(max(links.max(initial=0), now.max(initial=0))) + 1
+        key = lambda pairs: np.sort(pairs, axis=1) @ np.array([base, 1])
+        order = np.argsort(key(links))
+        at = np.searchsorted(key(links)[order], key(now))
+        found = at < len(links)
+        found[found] &= key(links)[order][at[found]] == key(now[found])
+        omega = np.ones(len(links))
+        omega[order[at[found]]] = np.asarray(now_omega, float)[found]
+        omega[omega >= BROKEN_OMEGA] = 1.0
+        return local[mine], omega
+
+    def _local(self, pairs):
+        """Indices in `ids` of the bodies of `pairs` (-1: not measured)."""
+        local = np.full(pairs.shape, -1)
+        inside = pairs < len(self._index)
+        local[inside] = self._index[pairs[inside]]
+        return local
+
+    def worst_link(self):
+        """Per sphere, the largest damage ω of its initial links, a broken one counting as 1;
+        one walk over O.interactions."""
+        pairs, omega = self.link_omega()
         worst = np.zeros(len(self.ids))
         for column in pairs.T:
-            inside = column < len(self._index)
-            local = self._index[column[inside]]
-            np.maximum.at(worst, local[local >= 0], omega[inside][local >= 0])
-        worst[self._count(pairs[omega < BROKEN_OMEGA]) < self.initial] = 1.0
+            np.maximum.at(worst, column[column >= 0], omega[column >= 0])
         return worst
 
     def broken_links(self):
@@ -95,10 +118,3 @@ def keep_links_elastic(outside):
     for k in chosen:
         links[k].phys.neverDamage = True
     return len(chosen)
-
-
-def link_damage(where):
-    """CPM damage ω of the cohesive links still in the scene (not yet broken and deleted)
-    whose midpoint satisfies where(points)."""
-    links, mid = _links_and_midpoints()
-    return np.array([links[k].phys.omega for k in np.flatnonzero(where(mid))])

@@ -14,7 +14,7 @@ from orchestrator.run.outputs import damage_map, read_sensors
 
 # the keys a full and a coupled member must share to be compared
 SAME = ("scale", "radius", "impactor_speed", "impactor_side", "impactor_gap", "steps",
-        "dt_safety", "de_zone", "full_width", "layers")
+        "dt_safety", "de_zone", "full_width", "layers", "concrete")
 PLAN_CELL = 0.05   # m, the plan grid of the mean damage maps
 
 
@@ -38,6 +38,7 @@ class Run:
             if not (self.folder / name).is_file():
                 raise FileNotFoundError(f"{self.folder} has no {name}: not a finished slab run")
         self.model, self.spec = self.summary["model"], self.summary["spec"]
+        self.spec.setdefault("concrete", "plain")    # runs made before the choice existed
         self.seed = self.spec.get("seed", 1)
         self.t, self.names, self.h = read_sensors(self.folder / "sensors.csv")
         with np.load(self.folder / "damage.npz") as d:

@@ -181,7 +181,7 @@ def run_built(m, out, quiet=False, resume=False, inputs=None):
     spec, model = m.spec, m.model
     impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
     info = {"model": model, "seed": spec.seed, "spec": asdict(spec),
-            "n_slab_spheres": len(m.slab_ids),
+            "cpm": asdict(concrete(spec)), "n_slab_spheres": len(m.slab_ids),
             "build_s": m.build_s, "impact_energy_J": impact_energy,
             "links_kept_elastic": m.elastic_links}
     if m.grid.cells is not None:
@@ -190,23 +190,30 @@ def run_built(m, out, quiet=False, resume=False, inputs=None):
                         spec.checkpoint_every)
     return run_loop(m, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
                     info=info, arrays={"slab_index": m.slab_index},
-                    checks=lambda damage: _post_run_checks(m, damage), quiet=quiet,
+                    checks=lambda damage: _post_run_checks(m, damage, info), quiet=quiet,
                     resume=resume, inputs=spec_inputs(spec, model) if inputs is None else inputs)
 
 
-def _post_run_checks(m, damage):
+def _post_run_checks(m, damage, info):
     """The paper's two checks: the FE stays elastic; the bridging spheres stay undamaged. For
     the full model, their counterpart: links where the coupled model has its band and FE that
-    passed their tensile strength (ω > 0), which an elastic FE there cannot follow."""
+    passed their tensile strength (ω > 0), which an elastic FE there cannot follow; and
+    info["links_outside_de_zone"]: how many links are damaged there (cases.slab.variants)."""
     from orchestrator.run.checks import post_run_checks
     warnings = post_run_checks(m.fe, damage[m.bridge_index], m.spec.tensile_strength,
                                m.spec.compressive_strength)
-    if m.fe is None and not m.spec.elastic_outside:
-        from yade_side.damage import link_damage
-        omega = link_damage(lambda p: m.bridging.zone.depth(p) > 0)
-        cracked = np.count_nonzero(omega > 0)
-        if cracked:
-            warnings.append(f"{cracked} of the {omega.size} links outside the coupled model's DE "
-                            f"zone are partly damaged (mean ω {omega.mean():.3f}): a coupled "
-                            f"model, elastic there, will be stiffer (docs/slab.md)")
+    if m.fe is None:
+        from cases.slab.variants import link_record
+        pairs, omega = m.damage.link_omega()
+        slab_links = (pairs >= 0).all(axis=1)       # links between two slab spheres
+        pairs, omega = pairs[slab_links], omega[slab_links]
+        ref = m.slab.ref_pos
+        outside = m.bridging.zone.depth(0.5 * (ref[pairs[:, 0]] + ref[pairs[:, 1]])) > 0
+        info["links_outside_de_zone"] = link_record(omega, outside)
+        cracked = np.count_nonzero(omega[outside] > 0)
+        if cracked and not m.spec.elastic_outside:
+            warnings.append(f"{cracked} of the {np.count_nonzero(outside)} links outside the "
+                            f"coupled model's DE zone are damaged (mean ω "
+                            f"{omega[outside].mean():.3f}, broken ones counting as 1): a "
+                            f"coupled model, elastic there, will be stiffer (docs/slab.md)")
     return warnings
