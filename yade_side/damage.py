@@ -11,15 +11,20 @@ import numpy as np
 from yade_side import import_yade
 from yade_side.scene import BROKEN_OMEGA
 
+EXCLUDED = -2        # LinkDamage's index of a sphere whose links are not counted
+
 
 class LinkDamage:
-    def __init__(self, ids):
-        """ids: the spheres whose damage is measured; call record_initial() once the cohesive
-        links exist (after create_cohesive_links)."""
+    def __init__(self, ids, exclude=()):
+        """ids: the spheres whose damage is measured; links with an end among `exclude` (e.g.
+        the steel of reinforcement bars) are no links of theirs. Call record_initial() once
+        the cohesive links exist (after create_cohesive_links)."""
         self._O = import_yade().Omega()
         self.ids = np.asarray(ids, dtype=int)
-        self._index = np.full(self.ids.max() + 1, -1)
+        exclude = np.asarray(exclude, dtype=int)
+        self._index = np.full(max(self.ids.max(), exclude.max(initial=0)) + 1, -1)
         self._index[self.ids] = np.arange(len(self.ids))
+        self._index[exclude] = EXCLUDED
         self.initial = np.zeros(len(self.ids), int)
         self._links = np.empty((0, 2), int)
 
@@ -35,7 +40,13 @@ class LinkDamage:
             if phys is not None and phys.isCohesive and (
                     not require_intact or phys.omega < BROKEN_OMEGA):
                 pairs.append((i.id1, i.id2))
-        return np.array(pairs, int).reshape(-1, 2)
+        return self._kept(np.array(pairs, int).reshape(-1, 2))
+
+    def _kept(self, pairs, *values):
+        """The pairs (and the values along them) with no excluded end."""
+        ends = np.where(pairs < len(self._index), pairs, 0)
+        keep = ~np.any((self._index[ends] == EXCLUDED) & (pairs < len(self._index)), axis=1)
+        return (pairs[keep], *(v[keep] for v in values)) if values else pairs[keep]
 
     def _count(self, links):
         counts = np.zeros(len(self.ids), int)
@@ -64,7 +75,7 @@ class LinkDamage:
             if phys is not None and phys.isCohesive:
                 pairs.append((i.id1, i.id2))
                 omega.append(phys.omega)
-        pairs, omega = np.array(pairs, int).reshape(-1, 2), np.array(omega, float)
+        pairs, omega = self._kept(np.array(pairs, int).reshape(-1, 2), np.array(omega, float))
         worst = np.zeros(len(self.ids))
         for column in pairs.T:
             inside = column < len(self._index)
@@ -78,10 +89,13 @@ class LinkDamage:
         return int(len(self._links) - len(self._cohesive_links(require_intact=True)))
 
 
-def _links_and_midpoints():
-    """The scene's cohesive links and their midpoints (initial positions, State.refPos)."""
+def _links_and_midpoints(exclude=()):
+    """The scene's cohesive links with no end among `exclude`, and their midpoints (initial
+    positions, State.refPos)."""
     O = import_yade().Omega()
-    links = [i for i in O.interactions if i.isReal and i.phys.isCohesive]
+    skip = set(np.asarray(exclude, int).tolist())
+    links = [i for i in O.interactions if i.isReal and i.phys.isCohesive
+             and i.id1 not in skip and i.id2 not in skip]
     ref = np.array([[O.bodies[i.id1].state.refPos, O.bodies[i.id2].state.refPos]
                     for i in links]).reshape(-1, 2, 3)
     return links, ref.mean(axis=1)
@@ -97,8 +111,8 @@ def keep_links_elastic(outside):
     return len(chosen)
 
 
-def link_damage(where):
+def link_damage(where, exclude=()):
     """CPM damage ω of the cohesive links still in the scene (not yet broken and deleted)
-    whose midpoint satisfies where(points)."""
-    links, mid = _links_and_midpoints()
+    whose midpoint satisfies where(points), those with an end among `exclude` left out."""
+    links, mid = _links_and_midpoints(exclude)
     return np.array([links[k].phys.omega for k in np.flatnonzero(where(mid))])
