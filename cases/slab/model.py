@@ -52,6 +52,9 @@ def fe_parts(spec, grid, weight):
     model = ElasticModel(msh, spec.young, spec.poisson, spec.density, supports, weight=weight)
     bars = None
     if spec.reinforced:
+        if model.comm.size > 1:
+            raise ValueError("slab: reinforced under mpirun is not supported (the bars' yield "
+                             "checks read the FE state on one rank): run it without mpirun")
         from cases.slab.reinforced import fe_bars, model_bars
         part = model_bars(spec, "coupled", slab_bridging(spec, grid))[1]
         if part is not None:

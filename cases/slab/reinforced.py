@@ -36,12 +36,18 @@ FCK_MARGIN = 8e6                    # Pa, fcm − fck
 YIELD_EVERY = 100                   # steps between the bars' yield checks
 
 
-def layers(spec, where="reinforcement"):
-    """The slab's layers (Layer objects, checked, with the slab's box), or () if it has none;
-    entries given as mappings (a case file's tables, a summary's spec) are read."""
+def layers(spec):
+    """The slab's layers (SlabSpec.reinforcement, else DEFAULT_MESH if spec.reinforced)."""
+    return checked_layers(spec.reinforcement, spec.reinforced)
+
+
+def checked_layers(tables, reinforced, where="reinforcement"):
+    """Layer objects of `tables` (Layers, or mappings: a case file's [[reinforcement]] tables,
+    a summary's spec), checked in the slab's box; none given: DEFAULT_MESH if `reinforced`,
+    else ()."""
     given = [layer if isinstance(layer, Layer) else layer_from_dict(layer, f"{where}[{k}]")
-             for k, layer in enumerate(spec.reinforcement or ())]
-    if not given and spec.reinforced:
+             for k, layer in enumerate(tables or ())]
+    if not given and reinforced:
         given = list(DEFAULT_MESH)
     if given:
         from cases.slab.spec import SLAB
