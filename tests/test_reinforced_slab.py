@@ -62,7 +62,8 @@ def test_a_bar_crossing_the_band_carries_its_ea_and_mass_once():
     strain ε, the chain's links carry β̄ E A ε and the trusses store ½ α (EA/L)(ε L)²: the bar's
     stiffness per length counted by both is EA ∫ (α + β) dx, and its mass ρ A ∫ (α + β) dx.
     α + β = 1 but where the weights' floor f holds one of them (s < f w, s > (1 − f) w):
-    ∫ (α + β) = L + f² w. The weights bend at spheres and element nodes only: exact."""
+    ∫ (α + β) = L + f² w. The weights bend at spheres and element nodes only: exact (the
+    chain's ends carry half a spacing more mass than the bar, counted)."""
     from yade_side import import_yade
     from yade_side.bars import Bond, SteelChains
     from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
@@ -106,9 +107,12 @@ def test_a_bar_crossing_the_band_carries_its_ea_and_mass_once():
     fe_mass = embedded.mass.sum() / 3
 
     assert (de_stiffness + fe_stiffness) / (E_S * A_S) == pytest.approx(exact, rel=1e-6)
-    assert (de_mass + fe_mass) / (RHO_S * A_S) == pytest.approx(exact, rel=1e-12)
-    # each model alone carries the bar where it is alone
-    assert de_mass / (RHO_S * A_S) == pytest.approx(1.0 + 0.5 * w + 0.5 * WEIGHT_FLOOR**2 * w)
+    # the chain's end spheres carry a whole spacing's mass (yade_side.bars): half a spacing
+    # more than the bar at each end, weighted by β there (1 and the floor)
+    ends = 0.5 * chains.spacing[0] * (1.0 + WEIGHT_FLOOR)
+    assert (de_mass + fe_mass) / (RHO_S * A_S) == pytest.approx(exact + ends, rel=1e-12)
+    assert de_mass / (RHO_S * A_S) == pytest.approx(1.0 + 0.5 * w + 0.5 * WEIGHT_FLOOR**2 * w
+                                                    + ends, rel=1e-12)
 
 
 # --- the steel is no concrete --------------------------------------------------------------

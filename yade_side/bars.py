@@ -11,7 +11,9 @@ when a link's stress passes fy.
 - Steel links: spheres of radius r on each bar axis, `spacing` ≈ 2 r apart (1.5 r < s < 3 r:
   neighbours linked, next neighbours not). CPM's link stiffness is young π r² / s, so
   young = E_s A_s / (π r²) gives the chain the bar's E_s A_s / s.
-- Mass: ρ_s A_s ℓ per sphere (ℓ its tributary length: s, s/2 at the bar's ends), scaled up (`mass_scale` ≥ 1) if needed so that the steel spheres'
+- Mass: ρ_s A_s s per sphere, the bar's ends too (half a spacing more than the bar at each
+  end: halving their mass would halve their PWaveTimeStep, which YADE takes from the mass),
+  scaled up (`mass_scale` ≥ 1) if needed so that the steel spheres'
   PWaveTimeStep, r √(ρ/young), is not below `dt_floor` (the concrete's): the bars do not shrink
   the time step the slab takes from PWaveTimeStep. PWave = √(3 r / 4 s) √(m/k) here, below the
   chain's own critical step √(m/k), so the chain is stable at that step.
@@ -103,9 +105,6 @@ class SteelChains:
         self.ids = np.asarray(O.bodies.append([
             utils.sphere(tuple(c), self.radius, material=materials[b])
             for c, b in zip(centres, self.bar)]), dtype=int)
-        for j in np.flatnonzero(self.tributary < self.spacing[self.bar]):   # the bar's ends
-            state = O.bodies[int(self.ids[j])].state
-            state.mass, state.inertia = 0.5 * state.mass, 0.5 * state.inertia
         self.links = [(int(self.ids[j]), int(self.ids[j + 1]), int(self.bar[j]))
                       for j in range(len(self.ids) - 1) if self.bar[j] == self.bar[j + 1]]
 
