@@ -59,7 +59,7 @@ def test_a_bar_crossing_the_band_carries_its_ea_and_mass_once():
     """A bar along x from 0 to 3 m; DE zone x < 1, band 1 ≤ x ≤ 2 (w = 1). The DE chain
     (0 ≤ x ≤ 2, spheres 0.01 m apart) gets β in its masses and links as the builder gives them
     (yade_side.weighting), the FE trusses (x ≥ 1) α inside stiffness and mass. In the uniform
-    strain ε, the chain's links carry β̄ E A ε and the trusses store ½ α (EA/L)(ε L)²: the bar's
+    strain ε, the chain's links carry β̄ E A ε, the trusses store ½ α (EA/L)(ε L)²: the bar's
     stiffness per length counted by both is EA ∫ (α + β) dx, and its mass ρ A ∫ (α + β) dx.
     α + β = 1 but where the weights' floor f holds one of them (s < f w, s > (1 − f) w):
     ∫ (α + β) = L + f² w. The weights bend at spheres and element nodes only: exact (the
@@ -170,8 +170,8 @@ def test_the_impactor_meets_the_concrete_not_the_steel():
     O.step()
     touching = {(i.id1, i.id2) for i in O.interactions if i.isReal}
     last = int(chains.ids[-1])
-    assert np.linalg.norm(np.subtract(O.bodies[last].state.pos, O.bodies[int(other[0])].state.pos)) \
-        < 2 * 0.02
+    gap = np.subtract(O.bodies[last].state.pos, O.bodies[int(other[0])].state.pos)
+    assert np.linalg.norm(gap) < 2 * 0.02                # they overlap
     assert not any(int(other[0]) in p and (p[0] in steel or p[1] in steel) for p in touching)
     assert any(int(other[0]) in p and (p[0] in set(concrete.tolist()) or
                                       p[1] in set(concrete.tolist())) for p in touching)
