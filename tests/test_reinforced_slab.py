@@ -237,6 +237,9 @@ def test_a_case_files_layers_reach_the_slab(tmp_path):
                                                       "one of 'bottom', 'top'"),
     ("cover = 0.04", "reinforcement[0].spacing: missing (required)"),
     ("spacing = 0.15\ncover = 0.04\nspacin = 1", "reinforcement[0].spacin: unknown key"),
+    ("spacing = 0.15\ncover = 0.04\n[[reinforcement]]\ndiameter = 0.012\ndirection = \"y\"\n"
+     "spacing = 0.15\ncover = 0.052\nbond_strength = 5e6",
+     "reinforcement[1].bond_strength = 5000000.0: every layer must have the same bond strength"),
 ])
 def test_bad_layers_in_a_case_file_are_refused_by_the_cli(tmp_path, capsys, layer, message):
     from test_faults import cli, one_line_error

@@ -52,9 +52,11 @@ def checked_layers(tables, reinforced, where="reinforcement"):
     if given:
         from cases.slab.spec import SLAB
         bar_layout(given, (0.0, 0.0, 0.0), SLAB, where)
-        strengths = {layer.bond_strength for layer in given}
-        if len(strengths) > 1:
-            raise ValueError(f"{where}[1].bond_strength = {given[1].bond_strength!r}: every "
+        other = [k for k, layer in enumerate(given)
+                 if layer.bond_strength != given[0].bond_strength]
+        if other:
+            k = other[0]
+            raise ValueError(f"{where}[{k}].bond_strength = {given[k].bond_strength!r}: every "
                              f"layer must have the same bond strength (one DE bond law), "
                              f"{where}[0] has {given[0].bond_strength!r}")
     return tuple(given)
