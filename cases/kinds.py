@@ -5,7 +5,7 @@ from cases.wave1d import casefile as wave1d_case
 from orchestrator.casefile import Kind, load
 
 KINDS = {"generic": Kind(generic.SCHEMA, generic.check),
-         "slab": Kind(slab_case.SCHEMA),
+         "slab": Kind(slab_case.SCHEMA, slab_case.check),
          "wave1d": Kind(wave1d_case.SCHEMA)}
 RUNNERS = {"generic": generic.run, "slab": slab_case.run, "wave1d": wave1d_case.run}
 

@@ -142,7 +142,9 @@ def bar_layout(layers, lo, hi, where="reinforcement"):
     for a in range(len(layers)):
         for b in range(a):
             (za, ra, axa), (zb, rb, axb) = depths[a], depths[b]
-            if axa != axb and abs(za - zb) < ra + rb:
+            # bars resting on each other (axes ra + rb apart) are fine: a relative tolerance
+            # for the rounding of the depths
+            if axa != axb and abs(za - zb) < (ra + rb) * (1 - 1e-9):
                 raise ValueError(f"{where}[{a}].cover = {layers[a].cover!r} m: its bars cross "
                                  f"those of {where}[{b}] (axes {abs(za - zb):.4g} m apart, "
                                  f"radii {ra + rb:.4g} m)")

@@ -6,11 +6,13 @@ loop's view of what was built.
 
 The order matters and is the same for every model:
 1. the FE part (α inside its stiffness and mass for the consistent weighting);
-2. the DE scene's bodies (only the spheres a coupled model keeps);
+2. the DE scene's bodies (only the spheres a coupled model keeps), then the description's
+   `bars` (steel spheres: weighted and coupled like the others, not measured);
 3. the checks that need both: spheres in the band, each inside an FE cell, the time step;
-4. β inside the sphere masses (consistent), the engines, the cohesive links, and β inside
-   the links once they exist (or right after the first step when the scene's script makes
-   them: links made at rest carry no force in that step, so the result is the same);
+4. β inside the sphere masses (consistent), the engines, the cohesive links (and the bars'
+   bonds), and β inside the links once they exist (or right after the first step when the
+   scene's script makes them: links made at rest carry no force in that step, so the result
+   is the same);
 5. the coupling of the band's spheres to the FE part, and the stepper.
 """
 from dataclasses import dataclass, field
@@ -65,6 +67,7 @@ class Description:
     dt_source: str = "dt"                  # what set `dt`, for the messages
     uncoupled: Optional[Callable] = None   # mask of band spheres left uncoupled (prescribed)
     band_tol: float = 0.0                  # the band widened by this (spheres on its faces)
+    bars: object = None                    # DE members that are not measured (contracts.DEBars)
 
 
 @dataclass
@@ -75,7 +78,8 @@ class Parts:
     fe: object                 # FE partner, or None for the DE model alone
     bridging: object
     beta: np.ndarray           # β of every sphere (1 where only spheres are)
-    bridge_index: np.ndarray   # the coupled spheres, into `ids`
+    bridge_index: np.ndarray   # the coupled spheres of `ids`, into `ids`
+    bar_ids: np.ndarray        # the bars' spheres: weighted and coupled, not measured
     stepper: object            # CoupledStepper, or None
     dt: float
     critical: dict
@@ -97,31 +101,39 @@ def assemble(d):
     fe = d.fe(d.bridging.alpha if consistent else None) if coupled else None
     keep = d.bridging.covers if coupled else None
     ids = np.asarray(d.scene.place(keep), int)
+    bar_ids = np.asarray(d.bars.place() if d.bars is not None else [], int)
+    every = np.concatenate([ids, bar_ids])   # the bars' spheres are weighted and coupled too
     problems = [] if len(ids) else ["de: no sphere lies in the DE zone or the bridging domain"]
-    ref_pos = BodySet(ids).ref_pos
+    ref_pos = BodySet(every).ref_pos
     index = np.empty(0, int)
     if coupled and len(ids):
         index = _coupled_spheres(d, fe, ref_pos, problems)
-    beta = d.bridging.beta(ref_pos) if consistent else np.ones(len(ids))
+    beta_every = d.bridging.beta(ref_pos) if consistent else np.ones(len(every))
+    beta = beta_every[:len(ids)]
     dt, critical = _time_step(d, fe, beta, problems)
     if problems:
         raise BuildError(problems)
     if consistent:
         from yade_side.weighting import weight_masses
-        weight_masses(ids, beta)
+        weight_masses(every, beta_every)
     links = d.scene.start(dt)
+    if d.bars is not None:
+        if not links:
+            raise BuildError(["bars: the scene's first step makes its links, the bars need "
+                              "them made in start()"])
+        d.bars.start()
     if consistent and links:
         from yade_side.weighting import weight_links
-        weight_links(ids, beta)
+        weight_links(every, beta_every)
     stepper, relaxation, notes, inside = None, None, [], False
     if coupled:
-        bridge = BodySet(ids[index])          # masses read once weighted
+        bridge = BodySet(every[index])        # masses read once weighted
         relaxation, notes = _relaxation(d, bridge, dt, critical)
         coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation)
         stepper = CoupledStepper(O.step, bridge, fe, coupling)
         inside = d.scene.attach(stepper.couple)
-    return Parts(O, ids, fe, d.bridging, beta, index, stepper, dt, critical, relaxation, notes,
-                 inside, not links, consistent)
+    return Parts(O, ids, fe, d.bridging, beta, index[index < len(ids)], bar_ids, stepper, dt,
+                 critical, relaxation, notes, inside, not links, consistent)
 
 
 class Model:
@@ -140,7 +152,7 @@ class Model:
         self.bridge = None if p.stepper is None else p.stepper.bridge
         self.in_de_zone = (np.zeros(len(p.ids), bool) if p.bridging is None
                            else p.bridging.zone.depth(self.spheres.ref_pos) < 0)
-        self.damage = LinkDamage(p.ids)
+        self.damage = LinkDamage(p.ids, exclude=p.bar_ids)
         if not p.links_pending:
             self.damage.record_initial()
         self.energy_bodies = [self.spheres]

@@ -63,6 +63,19 @@ class DEScene(Protocol):
         the stepper after each step (False)."""
 
 
+class DEBars(Protocol):
+    """Members of the DE model that are not its measured material (reinforcement bars: the
+    slab's cases.slab.reinforced.DEBars), for orchestrator.builder.assemble: weighted and
+    coupled like the scene's spheres, left out of damage and sensors."""
+
+    def place(self) -> np.ndarray:
+        """Add their spheres (those of the model being built) after the scene's bodies;
+        returns their ids."""
+
+    def start(self) -> None:
+        """Called once the scene's engines and cohesive links exist (before the weighting)."""
+
+
 class RunModel(Protocol):
     """A model, as the run loop sees it (orchestrator.builder.Model)."""
     dt: float

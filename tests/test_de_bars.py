@@ -61,7 +61,8 @@ def test_bar_alone_in_tension_gives_ea_over_l():
 def test_steel_past_yield_warns():
     chain, _, _ = stretched_chain(3e-3)                # 600 MPa > 500 MPa
     with pytest.warns(UserWarning, match="past the yield strength"):
-        assert len(chain.check_yield()) == len(chain.links)
+        over, ratio = chain.check_yield()
+        assert len(over) == len(chain.links) and ratio == pytest.approx(1.2, rel=1e-9)
     assert chain.steel_stress() == pytest.approx(E_S * 3e-3, rel=1e-9)
 
 

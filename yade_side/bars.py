@@ -11,7 +11,9 @@ when a link's stress passes fy.
 - Steel links: spheres of radius r on each bar axis, `spacing` ≈ 2 r apart (1.5 r < s < 3 r:
   neighbours linked, next neighbours not). CPM's link stiffness is young π r² / s, so
   young = E_s A_s / (π r²) gives the chain the bar's E_s A_s / s.
-- Mass: ρ_s A_s s per sphere, scaled up (`mass_scale` ≥ 1) if needed so that the steel spheres'
+- Mass: ρ_s A_s s per sphere, the bar's ends too (half a spacing more than the bar at each
+  end: halving their mass would halve their PWaveTimeStep, which YADE takes from the mass),
+  scaled up (`mass_scale` ≥ 1) if needed so that the steel spheres'
   PWaveTimeStep, r √(ρ/young), is not below `dt_floor` (the concrete's): the bars do not shrink
   the time step the slab takes from PWaveTimeStep. PWave = √(3 r / 4 s) √(m/k) here, below the
   chain's own critical step √(m/k), so the chain is stable at that step.
@@ -33,6 +35,10 @@ import numpy as np
 from yade_side import import_yade
 
 STEEL_SHEAR_RATIO = 0.2     # CpmMat.poisson of the steel links (shear/normal stiffness)
+# YADE makes an interaction only between bodies whose masks share a bit: the steel spheres
+# keep the default mask, the concrete that embeds them gets both bits, other bodies (e.g. an
+# impactor) the second bit only (see shield_bars)
+STEEL_MASK, OTHER_MASK = 1, 2
 NO_SLIP = 1e30              # steel links' cohesion (Pa): never reached
 
 
@@ -151,14 +157,29 @@ class SteelChains:
         return out
 
     def check_yield(self, warn=True):
-        """Indices of chain links whose |σ| exceeds fy (the steel law stays elastic); warns."""
+        """Indices of chain links whose |σ| exceeds fy (the steel law stays elastic); warns.
+        Returns (those indices, |σ| / fy of every link)."""
         stress = self.steel_stress()
         fy = self.bars.yield_strength[[bar for _, _, bar in self.links]]
-        over = np.flatnonzero(np.abs(stress) > fy)
+        ratio = np.abs(stress) / fy
+        over = np.flatnonzero(ratio > 1.0)
         if warn and over.size:
             worst = over[np.argmax(np.abs(stress[over]) / fy[over])]
             warnings.warn(f"DE bars: {over.size} of {len(stress)} steel links past the yield "
                           f"strength (worst {stress[worst] / 1e6:.0f} MPa, fy "
                           f"{fy[worst] / 1e6:.0f} MPa, bar {self.links[worst][2]}): the steel "
                           f"law is elastic, these forces are overestimated")
-        return over
+        return over, ratio
+
+
+def shield_bars(concrete_ids, other_ids):
+    """The bars are reached through the concrete only: the spheres `concrete_ids` meet the
+    steel spheres and the bodies `other_ids`, these do not meet the steel. Spheres of the bar's
+    size 2 R sit closer to the face than the concrete's top spheres' valleys, where an
+    impactor's spheres rest: they would be hit first. Once the concrete over a bar is gone,
+    the impactor passes through it (set-up only: a loop over the bodies)."""
+    O = import_yade().Omega()
+    for i in np.asarray(concrete_ids, int).tolist():
+        O.bodies[i].mask = STEEL_MASK | OTHER_MASK
+    for i in np.asarray(other_ids, int).tolist():
+        O.bodies[i].mask = OTHER_MASK

@@ -11,15 +11,20 @@ import numpy as np
 from yade_side import import_yade
 from yade_side.scene import BROKEN_OMEGA
 
+EXCLUDED = -2        # LinkDamage's index of a sphere whose links are not counted
+
 
 class LinkDamage:
-    def __init__(self, ids):
-        """ids: the spheres whose damage is measured; call record_initial() once the cohesive
-        links exist (after create_cohesive_links)."""
+    def __init__(self, ids, exclude=()):
+        """ids: the spheres whose damage is measured; links with an end among `exclude` (e.g.
+        the steel of reinforcement bars) are no links of theirs. Call record_initial() once
+        the cohesive links exist (after create_cohesive_links)."""
         self._O = import_yade().Omega()
         self.ids = np.asarray(ids, dtype=int)
-        self._index = np.full(self.ids.max() + 1, -1)
+        exclude = np.asarray(exclude, dtype=int)
+        self._index = np.full(max(self.ids.max(), exclude.max(initial=0)) + 1, -1)
         self._index[self.ids] = np.arange(len(self.ids))
+        self._index[exclude] = EXCLUDED
         self.initial = np.zeros(len(self.ids), int)
         self._links = np.empty((0, 2), int)
 
@@ -35,7 +40,12 @@ class LinkDamage:
             if phys is not None and phys.isCohesive and (
                     not require_intact or phys.omega < BROKEN_OMEGA):
                 pairs.append((i.id1, i.id2))
-        return np.array(pairs, int).reshape(-1, 2)
+        return self._kept(np.array(pairs, int).reshape(-1, 2))
+
+    def _kept(self, pairs):
+        """The pairs with no excluded end."""
+        ends = np.where(pairs < len(self._index), pairs, 0)
+        return pairs[~np.any((self._index[ends] == EXCLUDED) & (pairs < len(self._index)), axis=1)]
 
     def _count(self, links):
         counts = np.zeros(len(self.ids), int)
@@ -81,7 +91,7 @@ class LinkDamage:
         return local[mine], omega
 
     def _local(self, pairs):
-        """Indices in `ids` of the bodies of `pairs` (-1: not measured)."""
+        """Indices in `ids` of the bodies of `pairs` (-1: not measured, EXCLUDED)."""
         local = np.full(pairs.shape, -1)
         inside = pairs < len(self._index)
         local[inside] = self._index[pairs[inside]]

@@ -1,17 +1,35 @@
 """Slab case files (`kind = "slab"`): the keys are SlabSpec's fields (their tables in
-SlabSpec's metadata), plus slab.model."""
+SlabSpec's metadata), plus slab.model and the bars' [[reinforcement]] layers
+(cases.reinforcement.Layer's keys; given, the slab is reinforced with them)."""
+from cases.reinforcement import DIRECTIONS, FACES
 from cases.slab.model import MODELS, run as run_model
+from cases.slab.reinforced import checked_layers
 from cases.slab.spec import SlabSpec
-from orchestrator.casefile import CASE, REQUIRED, Key, choice, spec_from_case, spec_schema
+from orchestrator.casefile import (CASE, REQUIRED, Key, choice, number, positive, spec_from_case,
+                                   spec_schema)
 
 SCHEMA = {"case": CASE, **spec_schema(SlabSpec)}
 # no default model, as for the `slab` command: full or coupled is the user's choice
 SCHEMA["slab"] = {"model": Key(choice(*MODELS), REQUIRED), **SCHEMA["slab"]}
+_LENGTH = Key(number, REQUIRED, positive)
+SCHEMA["reinforcement"] = [{
+    "diameter": _LENGTH, "spacing": _LENGTH, "cover": _LENGTH,
+    "direction": Key(choice(*DIRECTIONS), REQUIRED), "face": Key(choice(*FACES)),
+    **{k: Key(number, check=positive)
+       for k in ("young", "yield_strength", "density", "bond_strength")}}]
+
+
+def check(data, folder, problems):
+    """The layout of the bars (outside the concrete, crossing layers, ...), one line each."""
+    try:
+        checked_layers(data["reinforcement"], False)
+    except ValueError as e:
+        problems.append(str(e))
 
 
 def spec(case):
     """The SlabSpec of a slab case (keys left out keep SlabSpec's defaults)."""
-    return spec_from_case(SlabSpec, case.data)
+    return spec_from_case(SlabSpec, case.data, reinforcement=case.data["reinforcement"])
 
 
 def run(case, out, force=False, quiet=False, resume=False):

@@ -13,6 +13,7 @@ from time import perf_counter
 import numpy as np
 
 from cases.slab.geometry import make_packings, sensor_points, slab_bridging, slab_grid
+from cases.slab.reinforced import YIELD_EVERY
 from cases.slab.spec import SLAB
 from orchestrator.builder import CouplingSpec, Description, Model, assemble
 
@@ -32,8 +33,13 @@ def fe_weight(spec, grid):
 
 def fe_model(spec, grid, weight):
     """The coupled model's FE part: the slab less the DE zone, its x = 0 and x = 2.5 faces held
-    in z (simple supports); `weight`: α inside stiffness and mass (or None). Collective under
-    MPI: every rank builds it."""
+    in z (simple supports), with its bars; `weight`: α inside stiffness and mass (or None).
+    Collective under MPI: every rank builds it."""
+    return fe_parts(spec, grid, weight)[0]
+
+
+def fe_parts(spec, grid, weight):
+    """fe_model's model and its embedded bars (fenicsx_side.bars.EmbeddedBars, or None)."""
     from fenicsx_side.model import ElasticModel, face
     if grid.cells is None:
         from fenicsx_side.mesh import box_mesh_with_hole
@@ -43,7 +49,17 @@ def fe_model(spec, grid, weight):
         removed = np.repeat(grid.cells[:, :, None], grid.n[2], axis=2)
         msh = box_mesh_without_cells((0, 0, 0), SLAB, grid.n, removed)
     supports = [(face(0, 0.0), (2,)), (face(0, SLAB[0]), (2,))]
-    return ElasticModel(msh, spec.young, spec.poisson, spec.density, supports, weight=weight)
+    model = ElasticModel(msh, spec.young, spec.poisson, spec.density, supports, weight=weight)
+    bars = None
+    if spec.reinforced:
+        if model.comm.size > 1:
+            raise ValueError("slab: reinforced under mpirun is not supported (the bars' yield "
+                             "checks read the FE state on one rank): run it without mpirun")
+        from cases.slab.reinforced import fe_bars, model_bars
+        part = model_bars(spec, "coupled", slab_bridging(spec, grid))[1]
+        if part is not None:
+            bars = fe_bars(model, part, grid.h / 2, weight)
+    return model, bars
 
 
 class SlabScene:
@@ -55,6 +71,7 @@ class SlabScene:
         self.spec, self.bridging = spec, bridging
         self.packs = make_packings(spec)
         self.elastic_links = 0
+        self.fe_bars = None           # the FE part's embedded bars, once it is built
 
     def place(self, keep):
         from yade_side.material import cpm_material
@@ -74,6 +91,9 @@ class SlabScene:
             c, r = p.slab_centres, p.slab_radii
             self.support_ids = self.slab_ids[(c[:, 0] < 2 * r) | (c[:, 0] > SLAB[0] - 2 * r)]
             block_dofs(self.support_ids, "z")
+        if self.spec.reinforced:
+            from yade_side.bars import shield_bars
+            shield_bars(self.slab_ids, self.impactor_ids)
         return self.slab_ids
 
     def critical_dt(self, beta):
@@ -109,13 +129,23 @@ def description(spec, model, grid=None):
                          "model has FE outside its DE zone)")
     grid = slab_grid(spec) if grid is None else grid
     bridging = slab_bridging(spec, grid)
-    fe = None
-    if model == "coupled":
+    scene = SlabScene(spec, bridging)
+
+    def coupled_fe(weight):
         from fenicsx_side.distributed import on_rank_zero
-        fe = lambda weight: on_rank_zero(fe_model(spec, grid, weight))
+        part, scene.fe_bars = fe_parts(spec, grid, weight)
+        return on_rank_zero(part)
+    fe = coupled_fe if model == "coupled" else None
     coupling = CouplingSpec(spec.variant, spec.relaxation, spec.rotations, spec.weighting)
-    return Description(SlabScene(spec, bridging), fe, bridging, coupling,
-                       dt_safety=spec.dt_safety), grid
+    bars = None
+    if spec.reinforced:
+        from cases.slab.reinforced import DEBars, bond, model_bars
+        part = model_bars(spec, model, bridging)[0]
+        weighted = model == "coupled" and spec.weighting == "consistent"
+        if part is not None:
+            bars = DEBars(part, spec.radius, bond(spec), bridging.beta if weighted else None)
+    return Description(scene, fe, bridging, coupling, dt_safety=spec.dt_safety,
+                       bars=bars), grid
 
 
 class SlabModel(Model):
@@ -125,6 +155,7 @@ class SlabModel(Model):
         t0 = perf_counter()
         d, self.grid = description(spec, model, grid)
         super().__init__(assemble(d))
+        self.de_bars, self.bar_ids = d.bars, self.parts.bar_ids
         scene = d.scene
         self.spec, self.model, self.scene = spec, model, scene
         self.slab, self.slab_ids, self.slab_index = self.spheres, scene.slab_ids, scene.slab_index
@@ -133,8 +164,35 @@ class SlabModel(Model):
         self.radius = self.slab.radius
         self.initial_links = int(self.damage.initial.sum())
         self.energy_bodies = [self.slab, self.impactor]
+        self.yield_watch = None
+        if spec.reinforced:
+            from cases.slab.reinforced import YieldWatch
+            from yade_side.bulk import BodySet
+            self.energy_bodies.append(BodySet(self.bar_ids))
+            self.yield_watch = YieldWatch(self.de_bars, scene.fe_bars, self.fe)
         self._sensors()
         self.build_s = perf_counter() - t0
+
+    def step(self):
+        super().step()
+        if self.yield_watch is not None and self.O.iter % YIELD_EVERY == 0:
+            self.yield_watch.check(self.O.time)
+
+    def bar_figures(self):
+        """What summary.json records of the bars (None for a plain slab)."""
+        if not self.spec.reinforced:
+            return None
+        de, fe = self.de_bars, self.scene.fe_bars
+        return {"layers": len(self.spec.reinforcement),
+                "steel_spheres": len(self.bar_ids),
+                "chain_links": 0 if de is None else len(de.chains.links),
+                "bond_links": 0 if de is None else de.bond_count,
+                "bond_strength_Pa": None if de is None else de.bond.strength,
+                "slip_stiffness_Pa_m": None if de is None else de.bond.slip_stiffness,
+                "de_bar_length_m": 0.0 if de is None else float(de.bars.length.sum()),
+                "de_mass_scale": None if de is None else float(de.chains.mass_scale.max()),
+                "fe_bar_elements": 0 if fe is None else len(fe.elements),
+                "fe_bar_length_m": 0.0 if fe is None else float(fe.length.sum())}
 
     def _sensors(self):
         """Spheres nearest the sensor points, and the FE node nearest the bridging sensor (in
@@ -180,21 +238,23 @@ def run_built(m, out, quiet=False, resume=False, inputs=None):
     from orchestrator.run.loop import Schedule, run as run_loop
     spec, model = m.spec, m.model
     impact_energy = 0.5 * m.impactor.mass.sum() * spec.impactor_speed**2
+    bars = m.bar_figures()          # the checks add the bars' yield figures at the end
     info = {"model": model, "seed": spec.seed, "spec": asdict(spec),
             "cpm": asdict(concrete(spec)), "n_slab_spheres": len(m.slab_ids),
             "build_s": m.build_s, "impact_energy_J": impact_energy,
-            "links_kept_elastic": m.elastic_links}
+            "links_kept_elastic": m.elastic_links, "reinforcement": bars}
     if m.grid.cells is not None:
         info["zone_cells"] = np.argwhere(m.grid.cells).tolist()
     schedule = Schedule(spec.steps, spec.sample_every, spec.check_every, spec.output_every,
                         spec.checkpoint_every)
     return run_loop(m, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
                     info=info, arrays={"slab_index": m.slab_index},
-                    checks=lambda damage: _post_run_checks(m, damage, info), quiet=quiet,
-                    resume=resume, inputs=spec_inputs(spec, model) if inputs is None else inputs)
+                    checks=lambda damage: _post_run_checks(m, damage, info, bars),
+                    quiet=quiet, resume=resume,
+                    inputs=spec_inputs(spec, model) if inputs is None else inputs)
 
 
-def _post_run_checks(m, damage, info):
+def _post_run_checks(m, damage, info, bars=None):
     """The paper's two checks: the FE stays elastic; the bridging spheres stay undamaged. For
     the full model, their counterpart: links where the coupled model has its band and FE that
     passed their tensile strength (ω > 0), which an elastic FE there cannot follow; and
@@ -202,6 +262,9 @@ def _post_run_checks(m, damage, info):
     from orchestrator.run.checks import post_run_checks
     warnings = post_run_checks(m.fe, damage[m.bridge_index], m.spec.tensile_strength,
                                m.spec.compressive_strength)
+    if m.yield_watch is not None:
+        warnings += m.yield_watch.warnings()
+        bars.update(m.yield_watch.figures())
     if m.fe is None:
         from cases.slab.variants import link_record
         pairs, omega = m.damage.link_omega()

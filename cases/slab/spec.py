@@ -151,10 +151,18 @@ class SlabSpec:
     tensile_strength: float = key(None, number, positive, section="material",
                                   help="ft (Pa), for the post-run FE check; default per scale "
                                        "and concrete")
+    reinforced: bool = key(False, boolean,
+                           help="bars: the case file's [[reinforcement]] layers, else a "
+                                "two-way mesh of 12 mm bars at 150 mm at both faces, 30 mm "
+                                "cover (docs/reinforcement.md)")
     relaxation_rule: str = None      # set by relaxation "auto": what the rule took r from
+    reinforcement: tuple = None      # the bars' layers (cases.reinforcement.Layer, checked)
 
     def __post_init__(self):
         check_spec(self, "slab")
+        from cases.slab.reinforced import layers
+        self.reinforcement = layers(self)
+        self.reinforced = bool(self.reinforcement)
         table = SCALES[self.scale]
         if self.concrete == "gf":
             if table.gf_cpm is None:
