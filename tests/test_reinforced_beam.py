@@ -22,7 +22,6 @@ The plain coupled beam itself bends 34 % more than the full one (0.688 against 0
 zone and band are softer than the same spheres in the full beam. That is the coupled model's,
 with or without bars (docs/reinforcement.md), and not what this test is about.
 """
-import math
 
 import numpy as np
 import pytest

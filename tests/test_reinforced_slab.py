@@ -11,7 +11,7 @@ import pytest
 
 from cases.bar_split import split_at_zone
 from cases.reinforcement import Bars, Layer
-from cases.slab import SLAB, SlabSpec, slab_bridging, slab_grid
+from cases.slab import SlabSpec, slab_bridging, slab_grid
 from cases.slab.reinforced import DEFAULT_MESH, model_bars
 from orchestrator.coupling.bridging import WEIGHT_FLOOR, Bridging, HalfSpaceZone
 

@@ -318,7 +318,7 @@ def test_plots_and_page_follow_the_table(forty):
     outcomes = execute(runs, out, {}, log=lambda line: None, dry=True)
     text = report.doc(table, runs, outcomes, 3600.0, "default", {}, "study")
     assert "**medium scale, 40 m/s, zone-0.9m-strip-nb3**" in text
-    assert "Reinforced concrete: pending" in text
+    assert "Reinforced concrete: not in the plan yet" in text
     # without the qualifying run: "none at this resolution", with the figures
     table["impacts"][0]["configs"][0]["goal"]["qualifies"] = False
     text = report.doc(table, runs, outcomes, 3600.0, "default", {}, "study")

@@ -27,7 +27,7 @@ is slower by its load factor.
 """
 import json
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -46,6 +46,9 @@ LARGER_ZONE = {"small": 1.2, "medium": 1.3}
 SMALL_BOX = 0.5           # m, a square box: about 9x fewer spheres at medium scale, n_b = 1
 PAPER_WINDOW_S = 5e-3     # the paper pair: at least this long after contact
 BUDGET_S = 3 * 3600.0     # one core
+# the slab can be reinforced (`SlabSpec.reinforced`), but the plan has no reinforced rows yet
+REINFORCED_ROWS = ("not in the plan yet: `slab --reinforced` exists (docs/reinforcement.md); "
+                   "its rows would double the plan's cost")
 # an auto-zone search against the full run of the same impact: medium 40 m/s, 1,500 s spent
 # in 11 attempts against a projected 1,300 s for the full model, unfinished (docs/auto-zone.md);
 # small scale 0.25-0.55
@@ -381,6 +384,3 @@ def where(run, out, index):
         return other, complete(other, run)
     return own, None
 
-
-def reinforced_available():
-    return "reinforced" in {f.name for f in fields(SlabSpec)}

@@ -3,6 +3,7 @@ table.md, one PNG per impact (each sensor's and the damaged volume's deviation a
 per-step speed-up, the full scatter as a band), and the docs page with the paper's Table 1 row
 and the projection to 100,000 steps."""
 from common.files import save_figure, write_text
+from cases.slab.study_plan import REINFORCED_ROWS
 
 PAPER_STEPS = 100_000
 SENSORS = ("under_impact", "de_zone", "bridging", "fe_node")
@@ -218,8 +219,7 @@ def doc(table, runs, outcomes, projected_s, sweep, images, command):
                 lines.append(f"- {impact_title(impact)}, {row['config']}: "
                              f"{'–' if sp is None else f'{sp:.2f}x'} per step; "
                              f"{row['goal']['why']}")
-    lines += ["", "Reinforced concrete: pending (`SlabSpec` has no reinforcement option yet; "
-              "its rows join the plan when it has).", "", "## How it is measured", "",
+    lines += ["", f"Reinforced concrete: {REINFORCED_ROWS}.", "", "## How it is measured", "",
               "- A coupled model places its sensors by its own DE zone and band; the full "
               "model's physics does not depend on the zone, so each full member records, "
               "beside its own sensors, those of every coupled zone of its impact (the "

@@ -26,29 +26,12 @@ def configure(p):
 
 
 def run(args):
-    from dataclasses import fields
     from pathlib import Path
     from mpi4py import MPI
     from cases import slab
     from orchestrator.run import folder
     if args.resume:
-        given = [f"--{f.name.replace('_', '-')}" for f in fields(slab.SlabSpec)
-                 if getattr(args, f.name, None) is not None]
-        given += [o for o, v in (("--model", args.model), ("--out", args.out),
-                                 ("--force", args.force), ("--seeds", args.seeds),
-                                 ("--jobs", args.jobs)) if v]
-        if given:
-            raise ValueError(f"--resume DIR takes the slab and its folder from DIR's "
-                             f"checkpoint: give no {', '.join(given)} with it")
-        from orchestrator.run.restart import resume_meta
-        meta = resume_meta(args.resume)
-        info = meta["info"]
-        if args.threads is None:        # the run's own threads: a 1-thread run stays bit-identical
-            args.threads = meta.get("yade_threads")
-        if "spec" not in info or "model" not in info:
-            raise ValueError(f"{args.resume} holds a checkpoint of case {info.get('case')!r}, "
-                             f"not of a slab run: resume it with `run --resume`")
-        spec, model = slab.SlabSpec(**info["spec"]), info["model"]
+        spec, model = _from_checkpoint(args)
     elif args.out and args.model:
         if args.seeds and args.seed is not None:
             raise ValueError("give either --seed or --seeds, not both")
@@ -88,6 +71,30 @@ def run(args):
         return 1                # the one line saying why was printed
     _report(model, spec, s, out)
     return 0
+
+
+def _from_checkpoint(args):
+    """(spec, model) of the run to resume in args.resume; its threads unless --threads is
+    given (a 1-thread run stays bit-identical)."""
+    from dataclasses import fields
+    from cases.slab import SlabSpec
+    from orchestrator.run.restart import resume_meta
+    given = [f"--{f.name.replace('_', '-')}" for f in fields(SlabSpec)
+             if getattr(args, f.name, None) is not None]
+    given += [o for o, v in (("--model", args.model), ("--out", args.out),
+                             ("--force", args.force), ("--seeds", args.seeds),
+                             ("--jobs", args.jobs)) if v]
+    if given:
+        raise ValueError(f"--resume DIR takes the slab and its folder from DIR's "
+                         f"checkpoint: give no {', '.join(given)} with it")
+    meta = resume_meta(args.resume)
+    info = meta["info"]
+    if args.threads is None:
+        args.threads = meta.get("yade_threads")
+    if "spec" not in info or "model" not in info:
+        raise ValueError(f"{args.resume} holds a checkpoint of case {info.get('case')!r}, "
+                         f"not of a slab run: resume it with `run --resume`")
+    return SlabSpec(**info["spec"]), info["model"]
 
 
 def _ensemble(model, args):

@@ -158,8 +158,7 @@ def _dry_run(medium, options, args, out, index, bench):
     print(f"projected on one quiet core (bench/results.json): {every / 3600:.2f} h for the "
           f"plan, {(total + timing) / 3600:.2f} h still to run, +{conditional / 3600:.2f} h if "
           f"the automatic zones end clean; budget {sp.BUDGET_S / 3600:.1f} h")
-    if not sp.reinforced_available():
-        print("reinforced concrete: pending (SlabSpec has no `reinforced` field yet)")
+    print(f"reinforced concrete: {sp.REINFORCED_ROWS}")
     return 0
 
 
