@@ -196,7 +196,6 @@ def qualifying(table):
 def doc(table, runs, outcomes, projected_s, sweep, images, command):
     """docs/where-coupling-pays.md, written from the table: the runs made, what qualifies
     (or "none at this resolution", with the figures), the paper pair and its Table 1 row."""
-    q = qualifying(table)
     lines = ["# Where coupling pays", "",
              f"Written by `{command}` (sweep `{sweep}`) from `table.json`; every figure below "
              "is in that table. Per configuration of each impact: each sensor's nRMS and peak "
@@ -205,7 +204,15 @@ def doc(table, runs, outcomes, projected_s, sweep, images, command):
              "orchestrator/verdicts.py), the damaged volume likewise, the per-step speed-up, "
              "the sphere ratio and the wall time spent. The goal (issue 17): within the full "
              "scatter on every sensor and the damaged volume, and at least 5× cheaper per "
-             "step at medium scale, 10× at paper scale.", "", "## Where the claim holds", ""]
+             "step at medium scale, 10× at paper scale.", ""]
+    lines += _claim_lines(table) + _method_lines() + _run_lines(runs, outcomes, projected_s)
+    lines += _map_lines(table, images) + _paper_lines(table)
+    return "\n".join(lines) + "\n"
+
+
+def _claim_lines(table):
+    lines = ["## Where the claim holds", ""]
+    q = qualifying(table)
     if q:
         for impact, row in q:
             lines.append(f"- **{impact_title(impact)}, {row['config']}**: {row['goal']['why']}")
@@ -219,52 +226,65 @@ def doc(table, runs, outcomes, projected_s, sweep, images, command):
                 lines.append(f"- {impact_title(impact)}, {row['config']}: "
                              f"{'–' if sp is None else f'{sp:.2f}x'} per step; "
                              f"{row['goal']['why']}")
-    lines += ["", f"Reinforced concrete: {REINFORCED_ROWS}.", "", "## How it is measured", "",
-              "- A coupled model places its sensors by its own DE zone and band; the full "
-              "model's physics does not depend on the zone, so each full member records, "
-              "beside its own sensors, those of every coupled zone of its impact (the "
-              "automatic zones' final ones included) and each coupled member is judged at its "
-              "own sensors (cases/slab/probes.py).",
-              "- The per-step speed-up is timed, when the table says `timed`, on one window "
-              "of each model built afresh from its run's description, one after the other, in "
-              "CPU time (bench/study_timing.py: at medium scale 0.2 ms into the impact, at "
-              "paper scale right after the build); the runs' own wall times per step are "
-              "kept beside it (`runs`): on a loaded machine they gave 0.46-2.57 for the same "
-              "pair of models.",
-              "- The automatic zone is run on seed 1, and on seeds 2 and 3 only when seed 1 "
-              "ends clean (default sweep); its cost is every attempt's wall time.",
-              "- The default plan is chosen for about 3 h of one core (the projection below, "
-              "from bench/results.json): 10 and 40 m/s, the zones × n_b sweep at 10 m/s; "
-              "`--sweep full` runs 10, 20 and 40 m/s, the sweep at each, the default and "
-              "automatic zones on three seeds and two paper seeds.",
-              "", "## The runs", "",
-              f"Projected cost of the plan on one quiet core: {projected_s / 3600:.2f} h "
-              f"(bench/results.json). Each run is a `slab` run in its folder of "
-              f"`results/where-coupling-pays/`.", "",
-              "| run | seed | steps | status | wall s |", "|---|---|---|---|---|"]
+    return lines + ["", f"Reinforced concrete: {REINFORCED_ROWS}.", ""]
+
+
+def _method_lines():
+    return ["## How it is measured", "",
+            "- A coupled model places its sensors by its own DE zone and band; the full "
+            "model's physics does not depend on the zone, so each full member records, "
+            "beside its own sensors, those of every coupled zone of its impact (the "
+            "automatic zones' final ones included) and each coupled member is judged at its "
+            "own sensors (cases/slab/probes.py).",
+            "- The per-step speed-up is timed, when the table says `timed`, on one window "
+            "of each model built afresh from its run's description, one after the other, in "
+            "CPU time (bench/study_timing.py: at medium scale 0.2 ms into the impact, at "
+            "paper scale right after the build); the runs' own wall times per step are "
+            "kept beside it (`runs`): on a loaded machine they gave 0.46-2.57 for the same "
+            "pair of models.",
+            "- The automatic zone is run on seed 1, and on seeds 2 and 3 only when seed 1 "
+            "ends clean (default sweep); its cost is every attempt's wall time.",
+            "- The default plan is chosen for about 3 h of one core (the projection below, "
+            "from bench/results.json): 10 and 40 m/s, the zones × n_b sweep at 10 m/s; "
+            "`--sweep full` runs 10, 20 and 40 m/s, the sweep at each, the default and "
+            "automatic zones on three seeds and two paper seeds.", ""]
+
+
+def _run_lines(runs, outcomes, projected_s):
+    lines = ["## The runs", "",
+             f"Projected cost of the plan on one quiet core: {projected_s / 3600:.2f} h "
+             f"(bench/results.json). Each run is a `slab` run in its folder of "
+             f"`results/where-coupling-pays/`.", "",
+             "| run | seed | steps | status | wall s |", "|---|---|---|---|---|"]
     for r in runs:
         o = outcomes.get(r.folder)
         s = o.summary if o else None
         wall = None if s is None else s.get("zone_total_wall_s", s.get("wall_s"))
         lines.append(f"| {r.config.folder} | {r.seed} | {r.spec().steps} | "
                      f"{o.status if o else 'not run'} | {_f(wall, '{:.0f}')} |")
-    lines += ["", "## The map", ""]
+    return lines + [""]
+
+
+def _map_lines(table, images):
+    lines = ["## The map", ""]
     for impact in table["impacts"]:
         lines += [f"### {impact_title(impact)}", "", HEADER.rstrip("\n")]
         lines += [config_line(row) for row in impact["configs"]]
         if impact["group"] in images:
             lines += ["", f"![{impact_title(impact)}]({images[impact['group']]})"]
         lines.append("")
+    return lines
+
+
+def _paper_lines(table):
     t1 = table.get("table1")
-    if t1:
-        lines += table1_lines(t1)
-        lines.append(f"Paper pair: {t1['goal']['why']}.")
-        for goals in t1.get("absolute_goals") or []:
-            lines.append("Against the full run, the slab issue's goals: " + ", ".join(
-                f"{k.replace('_', ' ')}: {_yes(v)}" for k, v in goals.items()) + ".")
-    else:
-        lines.append("Paper scale: not run yet.")
-    return "\n".join(lines) + "\n"
+    if not t1:
+        return ["Paper scale: not run yet."]
+    lines = table1_lines(t1) + [f"Paper pair: {t1['goal']['why']}."]
+    for goals in t1.get("absolute_goals") or []:
+        lines.append("Against the full run, the slab issue's goals: " + ", ".join(
+            f"{k.replace('_', ' ')}: {_yes(v)}" for k, v in goals.items()) + ".")
+    return lines
 
 
 def write(table, out, doc_path, doc_text):
