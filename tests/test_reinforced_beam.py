@@ -103,21 +103,8 @@ def fe_beam(young, weight=None, hole=True):
 def fe_static_deflection(c, r):
     """The plain beam in FE (E_REF, no hole), the same point loads, solved statically: mean
     z deflection interpolated at the gauge spheres."""
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import spsolve
-    fe = fe_beam(E_REF, hole=False)
-    loaded = top(c, r)
-    k, _ = fe.point_operators(c[loaded])
-    f = np.zeros((loaded.sum(), 3))
-    f[:, 2] = -LOAD / loaded.sum()
-    free = np.flatnonzero(~fe.fixed)
-    K = fe.K[free][:, free]
-    # the supports leave the in-plane rigid motions free: a spring 1e-9 × the mean stiffness
-    K = (K + 1e-9 * K.diagonal().mean() * sp.identity(len(free))).tocsc()
-    u = np.zeros(fe.ndof)
-    u[free] = spsolve(K, (k.T @ f.ravel())[free])
-    g, _ = fe.point_operators(c[gauge(c)])
-    return float((g @ u).reshape(-1, 3)[:, 2].mean())
+    from cases.slab.bending import static_point_deflection
+    return static_point_deflection(fe_beam(E_REF, hole=False), c[top(c, r)], LOAD, c[gauge(c)])
 
 
 def deflection(model, young=None, reinforced=False):

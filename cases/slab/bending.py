@@ -63,8 +63,6 @@ def settled_deflection(gauge, tol=2e-4, chunk=500, max_chunks=60):
 
 def fe_deflection(spec, load):
     """The same strip, loads and gauge in FE (REFERENCE_E) on the scale's grid, solved statically."""
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import spsolve
     from fenicsx_side.mesh import box_mesh
     from fenicsx_side.model import ElasticModel, face
     grid = slab.slab_grid(spec)
@@ -75,10 +73,17 @@ def fe_deflection(spec, load):
                       [(face(0, 0.0), (2,)), (face(0, slab.SLAB[0]), (2,))])
     packs = slab.make_packings(spec)
     c, r = _strip(packs.slab_centres, packs.slab_radii)
-    top = _top(c, r)
-    k, _ = fe.point_operators(c[top])
-    f = np.zeros((top.sum(), 3))
-    f[:, 2] = -load / top.sum()
+    return static_point_deflection(fe, c[_top(c, r)], load, c[_gauge(c)])
+
+
+def static_point_deflection(fe, points, load, gauges):
+    """Mean z deflection at `gauges` of the FE model `fe`, solved statically, under a force
+    `load` (N, along −z) shared equally by `points` (through the coupling operator k)."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import spsolve
+    k, _ = fe.point_operators(points)
+    f = np.zeros((len(points), 3))
+    f[:, 2] = -load / len(points)
     free = np.flatnonzero(~fe.fixed)
     K = fe.K[free][:, free]
     # the supports leave the in-plane rigid motions free: a spring 1e-9 × the mean stiffness
@@ -86,7 +91,7 @@ def fe_deflection(spec, load):
     K = (K + 1e-9 * K.diagonal().mean() * sp.identity(len(free))).tocsc()
     u = np.zeros(fe.ndof)
     u[free] = spsolve(K, (k.T @ f.ravel())[free])
-    g, _ = fe.point_operators(c[_gauge(c)])
+    g, _ = fe.point_operators(gauges)
     return float((g @ u).reshape(-1, 3)[:, 2].mean())
 
 

@@ -47,7 +47,7 @@ def add_spec_options(p, cls):
         m = f.metadata
         default = "per scale" if f.default is None else f.default
         text = f"{m['help']} (default: {default})"
-        flag = "--" + f.name.replace("_", "-")
+        flag = option(f.name)
         if m["kind"] is boolean:
             p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=text)
         else:
@@ -60,6 +60,22 @@ def spec_from_args(cls, args, **values):
     values.update({f.name: getattr(args, f.name) for f in keyed_fields(cls)
                    if getattr(args, f.name) is not None})
     return cls(**values)
+
+
+def option(name):
+    """The command-line option of field `name`."""
+    return "--" + name.replace("_", "-")
+
+
+def list_of(cast, what):
+    """An argparse type: a comma-separated list of `cast` values (`what` names them)."""
+    def parse(text):
+        try:
+            return [cast(x) for x in text.split(",")]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"a comma-separated list of {what}, got "
+                                             f"{text!r}") from None
+    return parse
 
 
 def keyed_fields(cls):

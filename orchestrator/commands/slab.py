@@ -1,7 +1,7 @@
 """`slab`: the paper's slab impact, full YADE or coupled YADE/FEniCSx. Every option but the
 model, threads and folders is a field of cases.slab.SlabSpec, which holds the defaults."""
 from orchestrator.commands._options import (add_out, add_spec_options, add_threads, count,
-                                            spec_from_args)
+                                            list_of, option, spec_from_args)
 
 NAME = "slab"
 HELP = "slab impact (paper §5): --model full|coupled --scale small|medium|paper"
@@ -79,7 +79,7 @@ def _from_checkpoint(args):
     from dataclasses import fields
     from cases.slab import SlabSpec
     from orchestrator.run.restart import resume_meta
-    given = [f"--{f.name.replace('_', '-')}" for f in fields(SlabSpec)
+    given = [option(f.name) for f in fields(SlabSpec)
              if getattr(args, f.name, None) is not None]
     given += [o for o, v in (("--model", args.model), ("--out", args.out),
                              ("--force", args.force), ("--seeds", args.seeds),
@@ -131,7 +131,7 @@ def _spec_argv(args, seed):
     from orchestrator.commands._options import keyed_fields
     argv = ["--seed", str(seed)]
     for f in keyed_fields(SlabSpec):
-        value, flag = getattr(args, f.name), "--" + f.name.replace("_", "-")
+        value, flag = getattr(args, f.name), option(f.name)
         if isinstance(value, bool):
             argv.append(flag if value else "--no-" + flag[2:])
         elif value is not None and f.name != "seed":
@@ -148,10 +148,7 @@ def _report(model, spec, s, out):
 
 def _seed_list(text):
     from argparse import ArgumentTypeError
-    try:
-        seeds = [int(x) for x in text.split(",")]
-    except ValueError:
-        raise ArgumentTypeError(f"a comma-separated list of integers, got {text!r}") from None
+    seeds = list_of(int, "integers")(text)
     if len(set(seeds)) != len(seeds) or min(seeds) < 0:
         raise ArgumentTypeError(f"distinct integers >= 0, got {text!r}")
     return seeds

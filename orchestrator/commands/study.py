@@ -4,7 +4,7 @@ says pays, and the table, plots and docs page written from the run folders. Runs
 finished with the same description are reused, so the study resumes where it stopped."""
 import argparse
 
-from orchestrator.commands._options import add_threads
+from orchestrator.commands._options import add_threads, list_of
 
 NAME = "study"
 HELP = ("where coupling pays: the coupled slab's error against the full scatter and its "
@@ -23,7 +23,8 @@ def configure(p):
                         "description, e.g. results/slab-medium of make validate")
     p.add_argument("--only", choices=("medium", "paper"), default=None,
                    help="only the medium map, or only the paper pair")
-    p.add_argument("--velocities", type=_floats, default=None, metavar="V,V,...",
+    p.add_argument("--velocities", type=list_of(float, "numbers"), default=None,
+                   metavar="V,V,...",
                    help="impact velocities (m/s) among 10, 20, 40 (default: 10,40; full "
                         "sweep: 10,20,40)")
     p.add_argument("--dry-run", action="store_true",
@@ -37,7 +38,7 @@ def configure(p):
     # the machinery at a small scale and a few steps, for its tests
     p.add_argument("--scale", default="medium", help=argparse.SUPPRESS)
     p.add_argument("--steps", type=int, default=None, help=argparse.SUPPRESS)
-    p.add_argument("--seeds", type=_ints, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--seeds", type=list_of(int, "integers"), default=None, help=argparse.SUPPRESS)
 
 
 def run(args):
@@ -160,19 +161,3 @@ def _dry_run(medium, options, args, out, index, bench):
           f"the automatic zones end clean; budget {sp.BUDGET_S / 3600:.1f} h")
     print(f"reinforced concrete: {sp.REINFORCED_ROWS}")
     return 0
-
-
-def _floats(text):
-    try:
-        return [float(x) for x in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a comma-separated list of numbers, got {text!r}") \
-            from None
-
-
-def _ints(text):
-    try:
-        return [int(x) for x in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"a comma-separated list of integers, got {text!r}") \
-            from None
