@@ -112,6 +112,40 @@ def test_limit_stops_the_search():
     assert outcome.status == "clean" and np.array_equal(outcome.zone, expected)
 
 
+def test_budget_stops_the_search_before_the_next_attempt():
+    """The kink case above grows once and runs clean; a budget that refuses a second attempt
+    ends it after the first trip, the zone as it was, the cost named as the limit reached."""
+    grid = CellGrid(P0, P1, N)
+    start = np.zeros(grid.shape, bool)
+    start[0, 0] = True
+    kink = lambda x: np.column_stack([1e-4 * np.maximum(x[:, 0] - 0.8, 0), 0 * x[:, :2]])
+    seen, lines = [], []
+    outcome = find_zone(lambda zone: StretchedBlock(zone, kink), steps, grid, start,
+                        np.ones(grid.shape, bool), FT, TripLevels(stress_every=1),
+                        log=lines.append,
+                        budget=lambda attempts: seen.append(len(attempts)) or "too dear")
+    assert seen == [1] and outcome.status == "limit" and outcome.limit == "cost"
+    assert np.array_equal(outcome.zone, start) and outcome.summary is None
+    assert lines[-1] == "zone search ends: too dear"
+    assert outcome.record(grid, 1000, 30)["zone_limit_reached"] == "cost"
+
+
+def test_slab_budget_counts_sphere_steps_spent_and_one_whole_run_of_the_last_zone():
+    """Full model 10,000 spheres × 1,000 steps = 1e7 sphere steps. Attempts of 4,000 spheres
+    × 500 steps and 5,000 × 200: 3e6 spent, and the next attempt ≥ 5,000 × 1,000 = 5e6: 8e6,
+    under zone.cost 1 (1e7) and over zone.cost 0.8 (8e6 is not below it); 0 never stops."""
+    from cases.slab import SlabSpec
+    from cases.slab.zone import over_budget, search_cost
+    attempts = [{"spheres": 4000, "steps_run": 500}, {"spheres": 5000, "steps_run": 200}]
+    spec = SlabSpec(steps=1000)
+    assert search_cost(attempts, 1000) == (3_000_000, 5_000_000)
+    assert over_budget(attempts, 10_000, spec) is None
+    assert over_budget(attempts, 10_000, SlabSpec(steps=1000, zone_cost=0.0)) is None
+    why = over_budget(attempts, 10_000, SlabSpec(steps=1000, zone_cost=0.8))
+    assert why == ("3e+06 sphere steps spent and at least 5e+06 for the next attempt reach "
+                   "zone.cost = 0.8 × the full model's 1e+07")
+
+
 @pytest.mark.parametrize("kwargs, message", [
     (dict(stress=0.0), r"trip_stress must be in \(0, 100\]"),
     (dict(omega=1.5), r"trip_omega must be in \(0, 1\]"),
@@ -126,6 +160,7 @@ def test_bad_trip_levels(kwargs, message):
     (dict(trip_stress=-1.0), r"^slab: trip_stress must be in \(0, 100\] .*, got -1.0$"),
     (dict(trip_omega=2.0), r"^slab: trip_omega must be in \(0, 1\] .*, got 2.0$"),
     (dict(zone_start=3.0), r"^slab: zone.start = 3.0 m: a DE zone of 19 cells .* do not fit in the 15 cells"),
+    (dict(zone_cost=-1.0), r"^slab: zone_cost must be .*, got -1.0$"),
     (dict(zone_start=0.6, zone_limit=0.3),
      r"^slab: zone limit \(36 cells\) does not hold the start zone \(20 cells\)"),
 ])

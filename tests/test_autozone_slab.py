@@ -11,8 +11,9 @@ from orchestrator.cli import main
 
 pytestmark = pytest.mark.slow
 STEPS = 100   # contact at step ~33; σ1 passes 0.05 ft at step ~90 with a 0.3 m start zone
-AUTO = ["slab", "--scale", "small", "--zone", "auto", "--zone-start", "0.3", "--steps",
-        str(STEPS), "--output-every", "50", "--quiet"]
+AUTO = ["slab", "--model", "coupled", "--scale", "small", "--zone", "auto", "--zone-start",
+        "0.3", "--steps", str(STEPS), "--output-every", "50", "--quiet",
+        "--zone-cost", "0"]   # no budget: the last option, so a test can set one
 
 
 @pytest.fixture(scope="module")
@@ -70,3 +71,15 @@ def test_the_limit_ends_the_search_and_the_fallback_runs_the_full_model(tmp_path
     s = json.loads((tmp_path / "full" / "summary.json").read_text())
     assert s["model"] == "full" and s["zone_fallback"] == "full" and s["zone_outcome"] == "limit"
     assert s["n_spheres"] == s["full_model_projected"]["spheres"]
+
+
+def test_the_budget_ends_the_search_with_its_line(tmp_path, capsys):
+    """The grown case's first attempt trips (σ1 ≥ 0.05 ft); a budget of 0.01 × the full
+    model's sphere steps is spent by then: one line that names the budget, exit code 1."""
+    args = AUTO[:-1] + ["0.01", "--trip-stress", "0.05", "--out", str(tmp_path)]
+    assert main(args) == 1
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert line.startswith("coupling cannot pay for this impact: after 1 attempts")
+    assert "would cost more than the full model (zone.cost) in another attempt" in line
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert (s["zone_outcome"], s["zone_limit_reached"]) == ("limit", "cost")

@@ -330,6 +330,21 @@ def test_resume_accepts_keys_that_change_no_result(stopped):
         check_inputs(stopped, case_inputs(load(stopped / "case.toml", ["output.every=7"])))
 
 
+
+def test_a_field_added_since_the_checkpoint_is_the_same_input_at_its_default():
+    """A checkpoint written before a SlabSpec field existed carries on at the field's
+    declared default, and is refused, naming the field, at any other value."""
+    from cases.slab import SlabSpec
+    from orchestrator.run.inputs import differences, spec_inputs
+    saved = json.loads(json.dumps(spec_inputs(SlabSpec(), "coupled"), default=str))
+    del saved["zone_cost"]
+    assert differences(saved, spec_inputs(SlabSpec(), "coupled")) == []
+    assert differences(saved, spec_inputs(SlabSpec(zone_cost=2.0), "coupled")) == [
+        "zone_cost: 1.0 at the checkpoint, 2.0 now"]
+    del saved["seed"]                      # a plain dict of inputs has no defaults to fill in
+    assert differences(saved, dict(spec_inputs(SlabSpec(), "coupled"))) == [
+        "seed: absent at the checkpoint, 1 now", "zone_cost: absent at the checkpoint, 1.0 now"]
+
 @pytest.mark.parametrize("name", ["state.npz", "yade/cpm_history.npz", "meta.json"])
 def test_a_corrupt_checkpoint_file_is_named(stopped, capsys, name):
     path = stopped / "checkpoint" / name

@@ -57,5 +57,6 @@ def run_full(spec, layouts, out, quiet=False, start=None, resume=False):
     names = add_probes(m, layouts)
     if start is not None:
         out = start()
-    return run_built(m, out, quiet, resume, inputs={**spec_inputs(spec, "full"),
-                                                   "sensors": names})
+    inputs = spec_inputs(spec, "full")
+    inputs["sensors"] = names
+    return run_built(m, out, quiet, resume, inputs=inputs)

@@ -112,6 +112,11 @@ class SlabSpec:
                            help="auto: steps between bridging link checks")
     zone_margin: int = key(1, integer, positive, section="zone", name="margin",
                            help="auto: cells added around the flagged ones")
+    zone_cost: float = key(1.0, number, non_negative, section="zone", name="cost",
+                           help="auto: the search stops when the spheres × steps it has run, "
+                                "plus one whole run of its last zone, reach this × the full "
+                                "model's (it can no longer be cheaper than the full run); 0: "
+                                "no such limit")
     layers: int = key(3, integer, positive, section="coupling", help="bridging layers")
     variant: str = key("diagonal", choice(*VARIANTS), section="coupling",
                        help="multiplier solver")

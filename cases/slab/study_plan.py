@@ -49,10 +49,12 @@ BUDGET_S = 3 * 3600.0     # one core
 # the slab can be reinforced (`SlabSpec.reinforced`), but the plan has no reinforced rows yet
 REINFORCED_ROWS = ("not in the plan yet: `slab --reinforced` exists (docs/reinforcement.md); "
                    "its rows would double the plan's cost")
-# an auto-zone search against the full run of the same impact: medium 40 m/s, 1,500 s spent
-# in 11 attempts against a projected 1,300 s for the full model, unfinished (docs/auto-zone.md);
-# small scale 0.25-0.55
-AUTO_OVER_FULL = {"small": 0.55, "medium": 1.3, "paper": 1.3}
+# an auto-zone search against the full run of the same impact: at most about 1.1 under the
+# default budget (zone.cost = 1: no attempt starts once the sphere steps spent and one whole
+# run of the last zone reach the full model's; the last attempt's zone is a little larger);
+# without it, medium 40 m/s spent 1,500 s in 11 attempts against a projected 1,300 s for the
+# full model, unfinished (docs/auto-zone.md); small scale 0.25-0.55
+AUTO_OVER_FULL = {"small": 0.55, "medium": 1.1, "paper": 1.1}
 TIMING_STEPS = (3, 30)    # warm-up and timed steps of the one-window timing of each model
 TIMING_AFTER_CONTACT_S = 2e-4
 BENCH = Path(__file__).resolve().parents[2] / "bench" / "results.json"
@@ -301,9 +303,10 @@ def timed(runs):
 
 # --- what is done ------------------------------------------------------------------------------
 def spec_key(spec):
-    """A slab description as compared for reuse: every field but those that change no result."""
-    from orchestrator.run.inputs import IGNORED
-    data = spec if isinstance(spec, dict) else asdict(spec)
+    """A slab description as compared for reuse: every field but those that change no result;
+    a field a recorded description lacks (added since) counts at its declared default."""
+    from orchestrator.run.inputs import IGNORED, declared_defaults
+    data = {**declared_defaults(SlabSpec), **(spec if isinstance(spec, dict) else asdict(spec))}
     return json.dumps({k: v for k, v in sorted(data.items()) if k not in IGNORED},
                       sort_keys=True, default=str)
 

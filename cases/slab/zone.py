@@ -92,7 +92,8 @@ def run_auto(spec, out, quiet=False):
         return run_built(model, folder, quiet)
 
     outcome = find_zone(build, attempt, grid, start, limit, spec.tensile_strength, lv,
-                        log=lambda line: None if quiet else print(line))
+                        log=lambda line: None if quiet else print(line),
+                        budget=lambda attempts: over_budget(attempts, full_spheres[0], spec))
     record = outcome.record(grid, full_spheres[0], spec.steps)
     last = out / f"attempt-{len(outcome.attempts)}"
     if outcome.status == "clean":
@@ -119,11 +120,32 @@ def run_auto(spec, out, quiet=False):
     return summary
 
 
+def search_cost(attempts, steps):
+    """(sphere steps run by the attempts, those of one whole run of the last zone): the
+    search's cost in YADE's unit of work, the same on every machine (the next zone holds at
+    least the last one's spheres)."""
+    return (sum(a["spheres"] * a["steps_run"] for a in attempts),
+            attempts[-1]["spheres"] * steps)
+
+
+def over_budget(attempts, full_spheres, spec):
+    """Why another attempt cannot pay (None if it still can): the sphere steps spent, plus one
+    whole run of the last zone, reach zone_cost × the full model's (zone_cost 0: never)."""
+    spent, next_run = search_cost(attempts, spec.steps)
+    full = full_spheres * spec.steps
+    if not spec.zone_cost or spent + next_run < spec.zone_cost * full:
+        return None
+    return (f"{spent:.4g} sphere steps spent and at least {next_run:.4g} for the next attempt "
+            f"reach zone.cost = {spec.zone_cost:g} × the full model's {full:.4g}")
+
+
 def message(outcome, full_spheres, record):
     a = outcome.attempts[-1]
+    why = ("would pass its limit" if outcome.limit == "cells" else
+           "would cost more than the full model (zone.cost) in another attempt")
     return (f"coupling cannot pay for this impact: after {len(outcome.attempts)} attempts the "
-            f"DE zone ({a['cells']} of {outcome.zone.size} in-plane cells, {a['spheres']} of the full "
-            f"model's {full_spheres} spheres) would pass its limit; "
+            f"DE zone ({a['cells']} of {outcome.zone.size} in-plane cells, {a['spheres']} of "
+            f"the full model's {full_spheres} spheres) {why}; "
             f"{outcome.wall_s:.3g} s spent against a projected "
             f"{record['full_model_projected']['wall_s']:.3g} s for the full model")
 

@@ -109,7 +109,9 @@ class Watch:
 
 @dataclass
 class Outcome:
-    status: str            # "clean": a run ended with no trip; "limit": the zone would pass it
+    status: str            # "clean": a run ended with no trip; "limit": the zone would pass it,
+                           # or another attempt would cost more than the budget allows
+    limit: str             # None (clean), "cells" (the zone's limit) or "cost" (the budget)
     zone: np.ndarray       # the last zone run
     zones: list            # the zone of every attempt
     attempts: list         # per attempt: its figures (dicts)
@@ -120,7 +122,7 @@ class Outcome:
     def record(self, grid, full_spheres, steps):
         """What summary.json keeps of the search, with the full model's projected cost
         (its spheres × YADE's per-sphere step cost measured here × the steps)."""
-        return {"zone_outcome": self.status,
+        return {"zone_outcome": self.status, "zone_limit_reached": self.limit,
                 "zone_attempts": self.attempts,
                 "zone_final": {"cells": np.argwhere(self.zone).tolist(),
                                "n_cells": int(self.zone.sum()),
@@ -140,10 +142,12 @@ def check_zones(grid, start, limit):
                          f"({int(start.sum())} cells): widen the limit or shrink the start")
 
 
-def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=print):
+def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=print,
+              budget=None):
     """Attempts from the zone `start` (a mask of `grid`) until one runs with no trip, or the
     zone would pass `limit` (a flagged cell outside it, or a zone that fills it and still
-    trips); returns the Outcome."""
+    trips), or `budget(attempts)` (None: no budget) says why another attempt cannot pay;
+    returns the Outcome."""
     check_zones(grid, start, limit)
     zone, zones, attempts, t_all = start.copy(), [], [], perf_counter()
     cost = []                                 # (YADE seconds, sphere steps) of each attempt
@@ -174,16 +178,21 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
             f"{model.sphere_count()} spheres: "
             + ("ran clean" if tripped is None else str(tripped)))
         if tripped is None:
-            status = "clean"
+            status, reached = "clean", None
             break
         # flagged cells beyond the limit end the search; the margin stops at the limit
         grown = (zone | grid.dilate(tripped.cells, levels.margin)) & limit
         if (tripped.cells & ~limit).any() or not (grown & ~zone).any():
-            status = "limit"
+            status, reached = "limit", "cells"
+            break
+        why = None if budget is None else budget(attempts)
+        if why:
+            log(f"zone search ends: {why}")
+            status, reached = "limit", "cost"
             break
         zone = grown
     seconds, sphere_steps = np.sum(cost, axis=0)
-    return Outcome(status, zone, zones, attempts, summary, perf_counter() - t_all,
+    return Outcome(status, reached, zone, zones, attempts, summary, perf_counter() - t_all,
                    float(seconds / sphere_steps) if sphere_steps else float("nan"))
 
 

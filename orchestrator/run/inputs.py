@@ -4,7 +4,7 @@ case reads. A checkpoint keeps them; a resumed run must have the same, or it wou
 models in one set of results (orchestrator.run.restart names the differences)."""
 import hashlib
 import json
-from dataclasses import asdict
+from dataclasses import MISSING, asdict, fields
 from pathlib import Path
 
 # keys that change no result: free text, how often the run checkpoints
@@ -37,10 +37,23 @@ def case_inputs(case):
     return flat
 
 
+class Inputs(dict):
+    """Inputs with the declared defaults of their keys (`defaults`): a key a checkpoint lacks
+    (its field was added since) is the same input when it is at its default now."""
+    defaults = {}
+
+
 def spec_inputs(spec, model):
     """The inputs of a slab run: its model and every field of its description."""
     flat = {k: v for k, v in asdict(spec).items() if k not in IGNORED}
-    return {"model": model, **flat}
+    inputs = Inputs(model=model, **flat)
+    inputs.defaults = {k: v for k, v in declared_defaults(type(spec)).items() if k in flat}
+    return inputs
+
+
+def declared_defaults(cls):
+    """{field: its declared default} of a description dataclass."""
+    return {f.name: f.default for f in fields(cls) if f.default is not MISSING}
 
 
 def digest(path):
@@ -51,10 +64,13 @@ def digest(path):
 
 def differences(saved, now):
     """One line per key whose value differs: 'key: A at the checkpoint, B now'; `saved` was
-    read from the checkpoint's JSON, `now` goes through JSON too (tuples become lists)."""
+    read from the checkpoint's JSON, `now` goes through JSON too (tuples become lists); a key
+    `saved` lacks counts at its declared default (Inputs)."""
     if saved is None:
         return ["the checkpoint does not record its case (written by an earlier version)"]
+    defaults = json.loads(json.dumps(getattr(now, "defaults", {}), default=str))
     now = json.loads(json.dumps(now, default=str))
+    saved = {**{k: v for k, v in defaults.items() if k in now}, **saved}
     missing = object()
     show = lambda v: "absent" if v is missing else repr(v)
     return [f"{key}: {show(saved.get(key, missing))} at the checkpoint, "
