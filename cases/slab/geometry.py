@@ -19,10 +19,32 @@ class Grid:
     axes: tuple = (0, 1)  # the axes along which the DE zone is bounded
     cells: np.ndarray = None  # a DE zone of in-plane grid cells (nx, ny) mask (hole_*: its
                               # bounding box), else the box [hole_lo, hole_hi]
+    h_band: float = None      # a graded mesh: the band's cells (None: uniform cells of h)
+    layers: int = 0           # a graded mesh: the band's cells of h_band on each side
 
     @property
     def width(self):
         return self.hole_hi - self.hole_lo
+
+    @property
+    def band_h(self):
+        """The in-plane size of the bridging band's cells."""
+        return self.h if self.h_band is None else self.h_band
+
+
+GROWTH = 1.2   # a graded mesh's largest ratio of neighbouring cells (docs/performance.md)
+
+
+def fe_axes(grid):
+    """The FE grid's planes along x, y, z: uniform, or graded along the zone's axes from the
+    band's cells to h (fenicsx_side.mesh.graded_axis)."""
+    axes = [np.linspace(0.0, SLAB[i], grid.n[i] + 1) for i in range(3)]
+    if grid.h_band is not None:
+        from fenicsx_side.mesh import graded_axis
+        for i in grid.axes:
+            axes[i] = graded_axis(0.0, SLAB[i], grid.hole_lo[i], grid.hole_hi[i], grid.h_band,
+                                  grid.layers, GROWTH, h_max=grid.h)
+    return axes
 
 
 def slab_grid(spec):
@@ -45,7 +67,10 @@ def slab_grid(spec):
                              f"layers do not fit in the {n[axis]} cells along axis {axis} with "
                              f"FE beyond them; reduce de_zone or layers, or the sphere radius")
         lo[axis], hi[axis] = start * h, (start + cells) * h
-    return Grid(h, tuple(n), lo, hi, axes)
+    if spec.band_ratio is None:
+        return Grid(h, tuple(n), lo, hi, axes)
+    return Grid(h, tuple(n), lo, hi, axes, h_band=spec.band_ratio * 2 * spec.radius,
+                layers=spec.layers)
 
 
 @dataclass
@@ -97,7 +122,7 @@ def _impactor_height(imp_c, imp_r, slab_c, slab_r, reach):
 def sensor_points(spec, grid):
     xc, yc = 0.5 * SLAB[0], 0.5 * SLAB[1]
     zmid = 0.5 * SLAB[2]
-    w = spec.layers * grid.h
+    w = spec.layers * grid.band_h
     away = 0.5 * (xc + 0.5 * spec.impactor_side + grid.hole_hi[0])
     return {
         "under_impact": (xc, yc, spec.radius),
@@ -114,4 +139,4 @@ def cell_grid(grid):
 def slab_bridging(spec, grid):
     zone = (BoxZone(grid.hole_lo, grid.hole_hi, grid.axes) if grid.cells is None
             else cell_grid(grid).zone(grid.cells))
-    return Bridging(zone, spec.layers, grid.h)
+    return Bridging(zone, spec.layers, grid.band_h)

@@ -12,7 +12,8 @@ from time import perf_counter
 
 import numpy as np
 
-from cases.slab.geometry import make_packings, sensor_points, slab_bridging, slab_grid
+from cases.slab.geometry import (fe_axes, make_packings, sensor_points, slab_bridging,
+                                 slab_grid)
 from cases.slab.reinforced import YIELD_EVERY
 from cases.slab.spec import SLAB
 from orchestrator.builder import CouplingSpec, Description, Model, assemble
@@ -41,7 +42,10 @@ def fe_model(spec, grid, weight):
 def fe_parts(spec, grid, weight):
     """fe_model's model and its embedded bars (fenicsx_side.bars.EmbeddedBars, or None)."""
     from fenicsx_side.model import ElasticModel, face
-    if grid.cells is None:
+    if grid.h_band is not None:
+        from fenicsx_side.mesh import tensor_box_with_hole
+        msh = tensor_box_with_hole(*fe_axes(grid), grid.hole_lo, grid.hole_hi)
+    elif grid.cells is None:
         from fenicsx_side.mesh import box_mesh_with_hole
         msh = box_mesh_with_hole((0, 0, 0), SLAB, grid.n, grid.hole_lo, grid.hole_hi)
     else:
@@ -58,7 +62,7 @@ def fe_parts(spec, grid, weight):
         from cases.slab.reinforced import fe_bars, model_bars
         part = model_bars(spec, "coupled", slab_bridging(spec, grid))[1]
         if part is not None:
-            bars = fe_bars(model, part, grid.h / 2, weight)
+            bars = fe_bars(model, part, grid.band_h / 2, weight)
     return model, bars
 
 
@@ -210,6 +214,8 @@ class SlabModel(Model):
 
     def _fe_node_position(self, x):
         """Nearest node of the FE grid (the structured grid of both models)."""
+        if self.grid.h_band is not None:
+            return np.array([a[np.argmin(np.abs(a - c))] for a, c in zip(fe_axes(self.grid), x)])
         h, hz = self.grid.h, SLAB[2] / self.grid.n[2]
         return np.array([round(x[0] / h) * h, round(x[1] / h) * h, round(x[2] / hz) * hz])
 

@@ -118,6 +118,12 @@ class SlabSpec:
                                 "model's (it can no longer be cheaper than the full run); 0: "
                                 "no such limit")
     layers: int = key(3, integer, positive, section="coupling", help="bridging layers")
+    band_ratio: float = key(None, number, positive, section="coupling",
+                            help="in-plane size of the bridging band's FE cells / sphere "
+                                 "diameter: a graded FE mesh, its cells growing by at most "
+                                 "1.2 per cell from the band to fe_ratio's size away from it "
+                                 "(box zones only, docs/performance.md); default: fe_ratio's "
+                                 "uniform mesh")
     variant: str = key("diagonal", choice(*VARIANTS), section="coupling",
                        help="multiplier solver")
     weighting: str = key("consistent", choice(*WEIGHTINGS), section="coupling",
@@ -182,13 +188,21 @@ class SlabSpec:
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
+        if self.band_ratio is not None:
+            if self.zone == "auto":
+                raise ValueError("slab: band_ratio (a graded FE mesh) applies to box zones, not "
+                                 "to zone 'auto'")
+            if self.band_ratio > self.fe_ratio:
+                raise ValueError(f"slab: band_ratio = {self.band_ratio!r} must not exceed "
+                                 f"fe_ratio = {self.fe_ratio!r} (the band's cells are the "
+                                 f"finest)")
         if self.zone == "auto":
             from cases.slab.zone import check
             check(self)
         if self.relaxation == "auto":
             from cases.slab.geometry import slab_grid
             from orchestrator.coupling.relaxation import auto_relaxation
-            ratio = slab_grid(self).h / (2 * self.radius)
+            ratio = slab_grid(self).band_h / (2 * self.radius)
             self.relaxation = float(auto_relaxation(ratio, self.layers, self.variant,
                                                     self.dt_safety, self.weighting))
             self.relaxation_rule = (f"relaxation auto: the 1D band's r with the most margin to "
