@@ -14,7 +14,10 @@ from orchestrator.run.outputs import damage_map, read_sensors
 
 # the keys a full and a coupled member must share to be compared
 SAME = ("scale", "radius", "impactor_speed", "impactor_side", "impactor_gap", "steps",
-        "dt_safety", "de_zone", "full_width", "layers", "concrete")
+        "dt_safety", "de_zone", "full_width", "layers", "band_ratio", "concrete")
+# those that only place the sensors: a full run carrying the probes of the coupled runs' zone
+# (cases.slab.probes, the study's full runs) stands for a full run of that zone
+ZONE_KEYS = ("de_zone", "full_width", "layers", "band_ratio")
 PLAN_CELL = 0.05   # m, the plan grid of the mean damage maps
 
 
@@ -72,13 +75,59 @@ def load(full_dirs, coupled_dirs, verdict=False):
     full, coupled = members(full_dirs, "full"), members(coupled_dirs, "coupled")
     if verdict:
         verdicts.check_members(len(full), len(coupled))
-    ensemble.check_same_kind({f"{r.model} {s}": {k: r.spec.get(k) for k in SAME}
+    probed = take_probes(full, coupled)
+    same = [k for k in SAME if not (probed and k in ZONE_KEYS)]
+    ensemble.check_same_kind({f"{r.model} {s}": {k: r.spec.get(k) for k in same}
                               for runs in (full, coupled) for s, r in runs.items()})
     names = next(iter(full.values())).names
     for r in [*full.values(), *coupled.values()]:
         if r.names != names:
             raise ValueError(f"{r.folder}: sensors {r.names}, the others {names}")
     return full, coupled
+
+
+def take_probes(full, coupled):
+    """Full runs that also carry the probes of other zones (LABEL/SENSOR) and coupled runs
+    whose sensors are not the full runs' own: each full run keeps, under the plain names, the
+    columns of the probes that sit where the coupled runs' sensors do (found on a same-seed
+    pair: the same packing puts them at the same points). Returns the label, or None."""
+    from cases.slab.probes import SEPARATOR, probe_name
+    f0, c0 = next(iter(full.values())), next(iter(coupled.values()))
+    if f0.names == c0.names or not any(SEPARATOR in n for n in f0.names):
+        return None
+    labels = set()
+    for seed, c in coupled.items():
+        f = full.get(seed)
+        if f is None:
+            raise ValueError(f"{c.folder}: the full runs carry the sensors of other zones; "
+                             f"the full run of seed {seed} tells which are this run's: give it")
+        found = [label for label in {n.split(SEPARATOR)[0] for n in f.names if SEPARATOR in n}
+                 if all(_at(f, n if n == "under_impact" else probe_name(label, n), _where(c, n))
+                        for n in c.names)]
+        if len(found) != 1:
+            raise ValueError(f"{c.folder}: {'no' if not found else 'more than one'} set of "
+                             f"probes of the full run {f.folder} sits at its sensors")
+        labels.add(found[0])
+    if len(labels) > 1:
+        raise ValueError(f"the coupled runs have zones of their own ({', '.join(sorted(labels))}"
+                         f"): compare them one at a time")
+    label = labels.pop()
+    for f in full.values():
+        columns = [f.names.index(n if n == "under_impact" else probe_name(label, n))
+                   for n in c0.names]
+        f.names, f.h = list(c0.names), f.h[:, columns]
+    return label
+
+
+def _where(run, name):
+    return run.summary.get("sensors", {}).get(name, {}).get("position")
+
+
+def _at(run, name, position):
+    """The sensor `name` of `run` sits at `position` (to round-off)."""
+    mine = _where(run, name)
+    return (name in run.names and mine is not None and position is not None
+            and np.allclose(mine, position, rtol=0, atol=1e-9))
 
 
 def compare(full, coupled, out, verdict=False):
