@@ -8,7 +8,8 @@ validate`'s medium 40 m/s ensembles are reused). Medium scale, plain concrete, i
 - the automatic-zone coupled model on seed 1; on seeds 2 and 3 when seed 1 ends clean (a
   search that reaches its limit says that coupling cannot pay for the impact; another seed
   would spend the failed search again);
-- the scale's default DE zone (n_b = 3) on seed 1;
+- the scale's default DE zone (n_b = 3) on seed 1, and the same zone with a graded FE mesh
+  (band cells of GRADED_BAND sphere diameters, `SlabSpec.band_ratio`);
 - at SWEEP_VELOCITY only, on seed 1: the fixed zones × n_b = 1, 2, 3: the default strip, a
   larger strip and a small box (the cheap end of the map: no full-width strip can be 5x
   cheaper at medium scale);
@@ -44,6 +45,8 @@ SWEEP_LAYERS = (1, 2, 3)
 # auto-zone limit (1.7 m at medium: the slab less the 3-layer band and one FE cell per support)
 LARGER_ZONE = {"small": 1.2, "medium": 1.3}
 SMALL_BOX = 0.5           # m, a square box: about 9x fewer spheres at medium scale, n_b = 1
+GRADED_BAND = 2.0         # band cells / sphere diameter of the graded-mesh row (the scale's
+                          # zone, n_b = 3): a 1.6x thinner band at medium scale
 PAPER_WINDOW_S = 5e-3     # the paper pair: at least this long after contact
 BUDGET_S = 3 * 3600.0     # one core
 # the slab can be reinforced (`SlabSpec.reinforced`), but the plan has no reinforced rows yet
@@ -73,6 +76,7 @@ class Config:
     de_zone: float = None       # m; None: the scale's
     full_width: bool = None     # None: the scale's
     layers: int = 3
+    band_ratio: float = None    # a graded FE mesh's band cells / sphere diameter (None: uniform)
 
     @property
     def name(self):
@@ -81,7 +85,9 @@ class Config:
         if self.zone == "auto":
             return f"auto-nb{self.layers}"
         d = self.defaults()
-        return (f"zone-{d.de_zone:g}m-{'strip' if d.full_width else 'box'}-nb{self.layers}")
+        graded = "" if self.band_ratio is None else f"-graded-{self.band_ratio:g}d"
+        return (f"zone-{d.de_zone:g}m-{'strip' if d.full_width else 'box'}-nb{self.layers}"
+                f"{graded}")
 
     @property
     def group(self):
@@ -106,7 +112,8 @@ class Config:
         if self.zone == "auto":
             return False
         d, f = self.defaults(), replace(self, model="full").defaults()
-        return (d.de_zone, d.full_width, d.layers) == (f.de_zone, f.full_width, f.layers)
+        key = lambda s: (s.de_zone, s.full_width, s.layers, s.band_ratio)
+        return key(d) == key(f)
 
 
 @lru_cache(maxsize=None)
@@ -116,7 +123,8 @@ def _spec(config, seed, steps):
     c = config
     values = dict(scale=c.scale, seed=seed, impactor_speed=c.velocity, steps=steps)
     if c.model == "coupled":
-        values.update(zone=c.zone, de_zone=c.de_zone, full_width=c.full_width, layers=c.layers)
+        values.update(zone=c.zone, de_zone=c.de_zone, full_width=c.full_width, layers=c.layers,
+                      band_ratio=c.band_ratio)
     return SlabSpec(**{k: v for k, v in values.items() if v is not None})
 
 
@@ -180,6 +188,7 @@ def _medium(sweep, scale, v, steps, seeds):
     auto = Config(scale, v, "coupled", zone="auto")
     everything = sweep == "full"
     runs = [Planned(default, s, steps) for s in (seeds if everything else seeds[:1])]
+    runs.append(Planned(replace(default, band_ratio=GRADED_BAND), seeds[0], steps))
     if everything or v == SWEEP_VELOCITY:
         for de_zone, full_width in ((None, None), (LARGER_ZONE[scale], True),
                                     (SMALL_BOX, False)):
@@ -228,7 +237,7 @@ def counts(spec, full_spheres):
     g = slab_grid(spec)
     nx, ny, nz = g.n
     cells = [round(w / g.h) for w in g.width[:2]]
-    band = [min(c + 2 * spec.layers, n) for c, n in zip(cells, (nx, ny))]
+    band = [min(c + 2 * spec.layers * g.band_h / g.h, n) for c, n in zip(cells, (nx, ny))]
     slab_v, imp_v = SLAB[0] * SLAB[1] * SLAB[2], spec.impactor_side ** 3
     per_v = full_spheres / (slab_v + imp_v)
     zone_share = band[0] * band[1] / (nx * ny)

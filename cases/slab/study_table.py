@@ -86,6 +86,7 @@ def config_row(c, members, full, full_cfg, found, timing):
     row = {"config": c.name, "model": "coupled", "zone": c.zone, "layers": c.layers,
            "de_zone_m": None if c.zone == "auto" else c.defaults().de_zone,
            "full_width": None if c.zone == "auto" else c.defaults().full_width,
+           "band_ratio": c.band_ratio,
            "seeds": sorted(done), "missing": sorted(set(members) - set(done)),
            "folders": {seed: str(f) for seed, (_, f, _) in done.items()}}
     row["cost"] = _cost(done, found.get(full_cfg, {}))
@@ -302,7 +303,8 @@ def choose(table):
         return None
     _, impact, row = best
     return Config("paper", impact["velocity"], "coupled", zone=row["zone"],
-                  de_zone=row["de_zone_m"], full_width=row["full_width"], layers=row["layers"])
+                  de_zone=row["de_zone_m"], full_width=row["full_width"], layers=row["layers"],
+                  band_ratio=row.get("band_ratio"))
 
 
 def _mean(values):
