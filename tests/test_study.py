@@ -210,6 +210,14 @@ def test_the_default_plan_fits_its_budget_and_the_full_sweep_is_larger():
     groups = {r.config.group for r in default}
     assert groups == {"medium-10ms", "medium-40ms", "paper-40ms"}
     assert {r.config.group for r in full} >= {"medium-20ms"}
+    # the full sweep's reinforced slab: an impact of its own at each velocity, its full
+    # members reinforced too; the default plan has none, and a graded row at each velocity
+    for v in ("10", "20", "40"):
+        rf = [r for r in full if r.config.group == f"medium-{v}ms-reinforced"]
+        assert {r.config.name for r in rf} == {"full", "zone-0.9m-strip-nb3", "auto-nb3"}
+        assert all(r.spec().reinforced for r in rf) and len(rf) == 9
+    assert not any(r.spec().reinforced for r in default)
+    assert sum(r.config.name == "zone-0.9m-strip-nb3-graded-2d" for r in default) == 2
     # every impact has its full ensemble of three seeds, after its coupled runs
     for g in ("medium-10ms", "medium-40ms"):
         members = [r for r in default if r.config.group == g]
@@ -318,7 +326,7 @@ def test_plots_and_page_follow_the_table(forty):
     outcomes = execute(runs, out, {}, log=lambda line: None, dry=True)
     text = report.doc(table, runs, outcomes, 3600.0, "default", {}, "study")
     assert "**medium scale, 40 m/s, zone-0.9m-strip-nb3**" in text
-    assert "Reinforced concrete: not in the plan yet" in text
+    assert "Reinforced concrete: in `--sweep full` only" in text
     # without the qualifying run: "none at this resolution", with the figures
     table["impacts"][0]["configs"][0]["goal"]["qualifies"] = False
     text = report.doc(table, runs, outcomes, 3600.0, "default", {}, "study")

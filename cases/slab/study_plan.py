@@ -15,8 +15,9 @@ validate`'s medium 40 m/s ensembles are reused). Medium scale, plain concrete, i
   cheaper at medium scale);
 and at paper scale the configuration the medium map says pays (else the paper scale's own
 zone), coupled against full over 5 ms after contact, one seed. `--sweep full`: every velocity,
-the sweep at each, the default zone and the automatic one on seeds 1-3, two paper seeds
-(about 6.4 h).
+the sweep at each, the default zone and the automatic one on seeds 1-3, the reinforced slab
+(its full ensemble, the default zone and the automatic one on seeds 1-3), two paper seeds
+(about 8.6 h).
 
 Costs are projections from the recorded benchmark (bench/results.json, `make bench`: CPU time
 per step of each model in the impact window, one thread): per step of a coupled model,
@@ -49,9 +50,12 @@ GRADED_BAND = 2.0         # band cells / sphere diameter of the graded-mesh row 
                           # zone, n_b = 3): a 1.6x thinner band at medium scale
 PAPER_WINDOW_S = 5e-3     # the paper pair: at least this long after contact
 BUDGET_S = 3 * 3600.0     # one core
-# the slab can be reinforced (`SlabSpec.reinforced`), but the plan has no reinforced rows yet
-REINFORCED_ROWS = ("not in the plan yet: `slab --reinforced` exists (docs/reinforcement.md); "
-                   "its rows would double the plan's cost")
+# the reinforced slab (`SlabSpec.reinforced`, docs/reinforcement.md) is an impact of its own:
+# its full ensemble, the default zone and the automatic one, in the full sweep only
+REINFORCED_ROWS = ("in `--sweep full` only (each velocity: its full ensemble, the default "
+                   "zone and the automatic one, seeds 1-3, `slab --reinforced`'s default mesh); "
+                   "at the default plan's two velocities they would add about 1.4 h of one "
+                   "core to its 2.8 h")
 # an auto-zone search against the full run of the same impact: at most about 1.1 under the
 # default budget (zone.cost = 1: no attempt starts once the sphere steps spent and one whole
 # run of the last zone reach the full model's; the last attempt's zone is a little larger);
@@ -77,6 +81,7 @@ class Config:
     full_width: bool = None     # None: the scale's
     layers: int = 3
     band_ratio: float = None    # a graded FE mesh's band cells / sphere diameter (None: uniform)
+    reinforced: bool = False    # the default bar mesh (docs/reinforcement.md)
 
     @property
     def name(self):
@@ -91,8 +96,8 @@ class Config:
 
     @property
     def group(self):
-        """The folder of one impact: scale and velocity."""
-        return f"{self.scale}-{self.velocity:g}ms"
+        """The folder of one impact: scale, velocity, and the reinforced slab apart."""
+        return f"{self.scale}-{self.velocity:g}ms" + ("-reinforced" if self.reinforced else "")
 
     @property
     def folder(self):
@@ -121,7 +126,8 @@ def _spec(config, seed, steps):
     """The SlabSpec of a configuration (cached: the relaxation rule takes 0.15 s per spec;
     callers do not change it)."""
     c = config
-    values = dict(scale=c.scale, seed=seed, impactor_speed=c.velocity, steps=steps)
+    values = dict(scale=c.scale, seed=seed, impactor_speed=c.velocity, steps=steps,
+                  reinforced=c.reinforced)
     if c.model == "coupled":
         values.update(zone=c.zone, de_zone=c.de_zone, full_width=c.full_width, layers=c.layers,
                       band_ratio=c.band_ratio)
@@ -168,6 +174,9 @@ def plan(sweep="default", velocities=None, only=None, scale="medium", steps=None
     if only in (None, "medium"):
         for v in velocities:
             runs += _medium(sweep, scale, float(v), steps, list(seeds))
+        if sweep == "full":
+            for v in velocities:
+                runs += _reinforced(scale, float(v), steps, list(seeds))
     if only in (None, "paper"):
         runs += _paper(sweep, paper_config, bench)
     return runs
@@ -203,6 +212,16 @@ def _medium(sweep, scale, v, steps, seeds):
     # the full members last: they carry the sensors of every coupled zone of the impact
     runs += [Planned(full, s, steps) for s in seeds]
     return runs
+
+
+def _reinforced(scale, v, steps, seeds):
+    """The reinforced slab at `v`: the default zone and the automatic one on every seed, then
+    the full ensemble."""
+    default = Config(scale, v, "coupled", reinforced=True)
+    auto = replace(default, zone="auto")
+    full = Config(scale, v, "full", reinforced=True)
+    return ([Planned(default, s, steps) for s in seeds] + [Planned(auto, s, steps) for s in seeds]
+            + [Planned(full, s, steps) for s in seeds])
 
 
 def _paper(sweep, config, bench):

@@ -68,7 +68,8 @@ HEADER = ("| configuration | seeds | spheres | sphere ratio | speed-up per step 
 
 
 def impact_title(impact):
-    return f"{impact['scale']} scale, {impact['velocity']:g} m/s"
+    return (f"{impact['scale']} scale, {impact['velocity']:g} m/s"
+            + (", reinforced" if impact.get("reinforced") else ""))
 
 
 def markdown(table):

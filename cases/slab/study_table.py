@@ -59,6 +59,7 @@ def build(runs, out, index=None, timing=None):
             full = {seed: Run(f) for seed, (r, f, s) in found[full_cfg].items() if s is not None}
         first = next(iter(configs))
         impact = {"group": group, "scale": first.scale, "velocity": first.velocity,
+                  "reinforced": first.reinforced,
                   "full": _full_figures(full_cfg, found.get(full_cfg, {}), full),
                   "configs": []}
         for c, members in found.items():
@@ -292,7 +293,7 @@ def choose(table):
     then measures the paper scale's own zone)."""
     best = None
     for impact in table["impacts"]:
-        if impact["scale"] == "paper":
+        if impact["scale"] == "paper" or impact.get("reinforced"):   # the paper's slab is plain
             continue
         for row in impact["configs"]:
             if row["goal"]["qualifies"]:

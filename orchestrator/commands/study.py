@@ -16,7 +16,8 @@ DOC = "docs/where-coupling-pays.md"
 def configure(p):
     p.add_argument("--sweep", choices=("default", "full"), default="default",
                    help="default: the plan that fits about 3 h of one core; full: every "
-                        "configuration at every velocity and seed (about 6.4 h)")
+                        "configuration at every velocity and seed, and the reinforced slab "
+                        "(about 8.6 h)")
     p.add_argument("--out", default=OUT, help=f"the study's folder (default {OUT})")
     p.add_argument("--reuse-ensembles", nargs="+", default=[], metavar="DIR",
                    help="folders of finished slab runs to reuse when they have the same "
