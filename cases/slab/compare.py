@@ -91,7 +91,7 @@ def take_probes(full, coupled):
     whose sensors are not the full runs' own: each full run keeps, under the plain names, the
     columns of the probes that sit where the coupled runs' sensors do (found on a same-seed
     pair: the same packing puts them at the same points). Returns the label, or None."""
-    from cases.slab.probes import SEPARATOR, probe_name
+    from cases.slab.probes import SEPARATOR, full_names
     f0, c0 = next(iter(full.values())), next(iter(coupled.values()))
     if f0.names == c0.names or not any(SEPARATOR in n for n in f0.names):
         return None
@@ -102,8 +102,8 @@ def take_probes(full, coupled):
             raise ValueError(f"{c.folder}: the full runs carry the sensors of other zones; "
                              f"the full run of seed {seed} tells which are this run's: give it")
         found = [label for label in {n.split(SEPARATOR)[0] for n in f.names if SEPARATOR in n}
-                 if all(_at(f, n if n == "under_impact" else probe_name(label, n), _where(c, n))
-                        for n in c.names)]
+                 if all(_at(f, name, _where(c, n))
+                        for n, name in zip(c.names, full_names(label, c.names)))]
         if len(found) != 1:
             raise ValueError(f"{c.folder}: {'no' if not found else 'more than one'} set of "
                              f"probes of the full run {f.folder} sits at its sensors")
@@ -113,8 +113,7 @@ def take_probes(full, coupled):
                          f"): compare them one at a time")
     label = labels.pop()
     for f in full.values():
-        columns = [f.names.index(n if n == "under_impact" else probe_name(label, n))
-                   for n in c0.names]
+        columns = [f.names.index(name) for name in full_names(label, c0.names)]
         f.names, f.h = list(c0.names), f.h[:, columns]
     return label
 

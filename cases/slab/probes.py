@@ -15,6 +15,12 @@ def probe_name(label, sensor):
     return f"{label}{SEPARATOR}{sensor}"
 
 
+def full_names(label, names):
+    """The full run's columns for the sensors `names` of a zone's layout `label` (None: the
+    full run's own); the sensor under the impact is the same point in every layout."""
+    return [n if label is None or n == "under_impact" else probe_name(label, n) for n in names]
+
+
 def layout_sensors(model, spec, grid):
     """(names, sphere indices, positions) of the full `model`'s sensors for the DE zone of
     `grid` and the band of `spec` (its layers): the spheres nearest the layout's points, and

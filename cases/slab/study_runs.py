@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from cases.slab.study_plan import complete, where
-from cases.slab.study_table import full_names, layout_label
+from cases.slab.probes import full_names
+from cases.slab.study_table import layout_label
 
 
 @dataclass

@@ -11,7 +11,7 @@ A coupled member is compared at its own sensors: the full members record them to
 import numpy as np
 
 from cases.slab.compare import Run
-from cases.slab.probes import probe_name
+from cases.slab.probes import full_names
 from cases.slab.study_plan import Config, where
 from orchestrator import ensemble, verdicts
 
@@ -31,10 +31,6 @@ def layout_label(run):
     if c.same_layout_as_full():
         return None
     return f"{c.name}-seed-{run.seed}" if c.zone == "auto" else c.name
-
-
-def full_names(label, names):
-    return [n if label is None or n == "under_impact" else probe_name(label, n) for n in names]
 
 
 def groups(runs):
