@@ -31,10 +31,11 @@ def task(run, summary):
 
 def time_models(runs, outcomes, path, previous=None, log=print):
     """{run folder: figures} of the first seed of every configuration whose run finished
-    (an automatic zone: only one that ended clean); entries of `previous` (an earlier
-    timing.json) with the same task are kept. Written to `path` after each model."""
+    (an automatic zone: only one that ended clean); the entries of `previous` (an earlier
+    timing.json) are kept, and reused when their task is the same. Written to `path` after
+    each model."""
     previous = dict(previous or {})
-    out = {}
+    out = dict(previous)
     for r in timed(runs):
         o = outcomes.get(r.folder)
         if o is None or o.summary is None or "n_spheres" not in o.summary:

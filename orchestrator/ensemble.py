@@ -85,6 +85,8 @@ def histories(full, coupled, sensors):
       member). The leave-in figures include the member in its own reference and so understate
       the spread: for n independent members of spread σ, E[rms²(h_i - mean)] = σ²(1 - 1/n),
       E[rms²(h_i - mean of others)] = σ²(1 + 1/(n-1)); h_i - mean of others = n/(n-1)·(h_i - mean).
+      "null_nrms": the nRMS of a history that stays at zero, rms(mean) / peak(mean): a scatter
+      that large cannot tell a model from no answer at all.
     - coupled_vs_full_mean: "nrms" and "peak_ratio" of each coupled member against the mean.
     - paired: "nrms" and "peak_ratio" of each coupled member against the full member of its seed.
     """
@@ -120,7 +122,8 @@ def histories(full, coupled, sensors):
             "peak_range": [float(peak_f[:, k].min()), float(peak_f[:, k].max())],
             "nrms": figures(dev_f[:, k]),
             "nrms_leave_one_out": figures(dev_loo[:, k]) if len(fs) > 1 else None,
-            "peak_ratio_leave_one_out": figures(peak_loo[:, k]) if len(fs) > 1 else None}
+            "peak_ratio_leave_one_out": figures(peak_loo[:, k]) if len(fs) > 1 else None,
+            "null_nrms": figures(nrms(np.zeros_like(mean[:, [k]]), mean[:, [k]]))[0]}
         out["coupled_vs_full_mean"][name] = {
             "nrms": figures(dev_c[:, k]), "peak_ratio": figures(ratio(peak_c[:, k], peak_m[k]))}
         out["paired"][name] = {

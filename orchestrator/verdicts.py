@@ -14,6 +14,12 @@ the scatter (n = 2: 1.5 σ² against 0.5 σ²). The verdict compares the LARGEST
 with the LARGEST leave-one-out deviation. It needs 2 full members; with 2 the two leave-one-out
 deviations are one and the same figure (their difference), a single sample of the spread: such a
 verdict is flagged weak (below WEAK_BELOW members).
+
+A scatter can also be too wide to judge anything: each verdict says whether a null prediction
+(a history that stays at zero, no damage) would be within it too (`null_within`). Its deviation
+is exact: the peak's and a damage figure's |0 / mean - 1| = 1, the nRMS rms(mean) / peak(mean)
+(orchestrator/ensemble.py: histories). Such a figure is no evidence either way: an impact whose
+full members barely damage the slab (10 m/s at medium scale) has a damaged-volume scatter past 1.
 """
 PEAK_RATIO_TOLERANCE = 0.10
 HISTORY_NRMS_MAX = 0.15
@@ -61,15 +67,19 @@ def check_members(n_full, n_coupled):
         raise ValueError("a verdict against the full model's scatter needs a coupled run, got 0")
 
 
-def _verdict(coupled, full_loo, n_full):
+NULL_DEVIATION = 1.0      # a peak's or a damage figure's, of a null prediction: |0 / mean - 1|
+
+
+def _verdict(coupled, full_loo, n_full, null=NULL_DEVIATION):
     """Largest coupled deviation against the largest leave-one-out full deviation (None: an
-    undefined figure, which fails)."""
+    undefined figure, which fails); `null`: a null prediction's deviation."""
     if any(d is None for d in coupled) or any(d is None for d in full_loo):
         return {"coupled_max": None, "full_leave_one_out_max": None, "within": False,
-                "n_full": n_full, "weak": n_full < WEAK_BELOW}
+                "n_full": n_full, "weak": n_full < WEAK_BELOW, "null_within": None}
     c, f = max(coupled), max(full_loo)
     return {"coupled_max": c, "full_leave_one_out_max": f, "within": c <= f,
-            "n_full": n_full, "weak": n_full < WEAK_BELOW}
+            "n_full": n_full, "weak": n_full < WEAK_BELOW,
+            "null_within": None if null is None else null <= f}
 
 
 def _deviations(ratios):
@@ -83,7 +93,8 @@ def within_full_scatter(histories, damage=None):
     histories, damage: the results of orchestrator.ensemble.histories and .damage.
     Returns {"sensors": {sensor: {"nrms": verdict, "peak": verdict}}, "damage":
     {"damaged_volume_m3": verdict, "broken_links": verdict} (without damage: absent)};
-    verdict = {"coupled_max", "full_leave_one_out_max", "within", "n_full", "weak"}."""
+    verdict = {"coupled_max", "full_leave_one_out_max", "within", "n_full", "weak",
+    "null_within"}."""
     n_full = len(histories["full_seeds"])
     check_members(n_full, len(histories["coupled_seeds"]))
     out = {"sensors": {}}
@@ -92,7 +103,8 @@ def within_full_scatter(histories, damage=None):
         peak = _verdict(_deviations(coupled["peak_ratio"]),
                         _deviations(full["peak_ratio_leave_one_out"]), n_full)
         out["sensors"][name] = {
-            "nrms": _verdict(coupled["nrms"], full["nrms_leave_one_out"], n_full), "peak": peak}
+            "nrms": _verdict(coupled["nrms"], full["nrms_leave_one_out"], n_full,
+                             full.get("null_nrms")), "peak": peak}
     if damage is not None:
         out["damage"] = damage_within_full_scatter(damage)
     return out

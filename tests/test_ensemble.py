@@ -99,6 +99,30 @@ def test_verdict_per_sensor(stats):
     assert not v["a"]["peak"]["within"]
 
 
+def test_a_null_prediction_is_measured_against_the_scatter(stats):
+    """A history that stays at zero lies rms(mean) / peak(mean) from the mean (a: f, 1/√2; b:
+    f + 0.04 over whole periods, √(1/2 + 0.04²) / 1.04) and |0 - 1| = 1 in peak and damage.
+    Members 0.2 f and 3 f differ by more than that: no coupled model can be judged by them."""
+    assert stats["full_scatter"]["a"]["null_nrms"] == pytest.approx(1 / S2, abs=1e-14)
+    assert stats["full_scatter"]["b"]["null_nrms"] == pytest.approx(np.sqrt(0.5 + 0.04 ** 2)
+                                                                    / 1.04, abs=1e-14)
+    v = verdicts.within_full_scatter(stats)["sensors"]
+    assert v["a"]["nrms"]["null_within"] is False and v["a"]["peak"]["null_within"] is False
+    t = np.arange(N) * T / N
+    wide = {1: (t, 0.2 * f(t)[:, None]), 2: (t, 3 * f(t)[:, None])}
+    w = ensemble.histories(wide, {5: (t, f(t)[:, None])}, ["a"])
+    assert w["full_scatter"]["a"]["null_nrms"] == pytest.approx(1 / S2, abs=1e-14)
+    vw = verdicts.within_full_scatter(w)["sensors"]["a"]
+    assert vw["nrms"]["full_leave_one_out_max"] == pytest.approx(2.8 / 0.2 / S2, abs=1e-12)
+    assert vw["nrms"]["null_within"] and vw["peak"]["null_within"]   # peaks: 3 / 0.2 - 1 = 14
+    d = ensemble.damage({s: {"damaged_volume_m3": v, "broken_links": 10}
+                         for s, v in ((1, 1.0), (2, 1.0), (3, 5.0))},
+                        {1: {"damaged_volume_m3": 2.0, "broken_links": 10}})
+    dv = verdicts.damage_within_full_scatter(d)
+    assert dv["damaged_volume_m3"]["full_leave_one_out_max"] == pytest.approx(4.0, abs=1e-14)
+    assert dv["damaged_volume_m3"]["null_within"] and not dv["broken_links"]["null_within"]
+
+
 def test_leave_one_out_is_not_the_leave_in_figure():
     """Two members ±δ f about f: each lies δ/√2 from their mean but 2δ/√2/(1 ∓ δ) from the other.
     A coupled member 1.5 δ away is outside the leave-in spread and inside the leave-one-out one."""

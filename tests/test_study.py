@@ -184,6 +184,48 @@ def test_full_runs_without_the_probes_are_not_judged_and_are_rerun(tmp_path):
     assert outcomes[r.folder].status == "done"
 
 
+def test_a_zone_that_qualifies_on_one_seed_is_confirmed_on_the_others(forty):
+    runs, out = forty
+    (config,) = st.qualifying_configs(st.build(runs, out), runs)
+    assert config.name == "zone-0.9m-strip-nb3"
+    extra = sp.confirmations(runs, [config])
+    assert [(r.config, r.seed, r.steps) for r in extra] == [(config, 2, None), (config, 3, None)]
+    assert sp.confirmations(runs + extra, [config]) == []        # planned once
+    for r, a in zip(extra, (1.01, 1.3)):         # seed 3 lies outside the full members' 0.9-1.1
+        write_member(out / r.folder, r, a, volume=1.0, s_per_step=0.5)
+    row = st.build(runs + extra, out)["impacts"][0]["configs"][0]
+    assert row["seeds"] == [1, 2, 3] and row["goal"]["qualifies"] is False
+    assert row["accuracy"]["sensors"]["fe_node"]["nrms"]["coupled_max"] == pytest.approx(
+        0.3 * RMS, abs=2e-9)
+    assert row["goal"]["why"].startswith("outside the full scatter: under_impact, de_zone")
+
+
+def test_a_scatter_a_null_prediction_lies_in_is_named_and_checks_are_shown(tmp_path):
+    """Full damaged volumes 0.2, 1.0, 3.0: leave-one-out deviations up to 3 / 0.6 - 1 = 4, past
+    the null prediction's 1; the histories' (0.9-1.1: 0.158 RMS) are below its RMS / 1."""
+    runs = runs_at(40.0)
+    full_ensemble(tmp_path, runs, volumes=(0.2, 1.0, 3.0))
+    d = by_name(runs, "zone-0.9m-strip-nb3", 1)
+    warning = ("FE principal stress 5.66 MPa exceeds the tensile strength 3.76 MPa: the DE "
+               "zone may be too small")
+    write_member(tmp_path / d.folder, d, 1.0, volume=0.5, s_per_step=0.5,
+                 extra={"warnings": [warning]})
+    table = st.build(runs, tmp_path)
+    row = table["impacts"][0]["configs"][0]
+    v = row["accuracy"]["damage"]["damaged_volume_m3"]["verdict"]
+    assert v["full_leave_one_out_max"] == pytest.approx(4.0) and v["null_within"] is True
+    assert row["accuracy"]["sensors"]["bridging"]["null_within"] is False
+    assert row["goal"]["qualifies"] is True and row["goal"]["null_within"] == ["damaged volume"]
+    assert "a null prediction, no displacement or no damage, is within it too on: damaged " \
+           "volume" in row["goal"]["why"]
+    table["table1"] = None
+    shown = "FE principal stress 5.66 MPa exceeds the tensile strength 3.76 MPa"
+    assert f"| {shown} |" in report.markdown(table)
+    outcomes = execute(runs, tmp_path, {}, log=lambda line: None, dry=True)
+    text = report.doc(table, runs, outcomes, 3600.0, "default", {}, "study")
+    assert f"the paper's post-run checks: {shown}" in text
+
+
 def test_one_full_paper_run_gives_the_paired_goals_and_table1(tmp_path):
     runs = sp.plan(only="paper", bench=BENCH)
     assert [r.config.name for r in runs] == ["zone-0.6m-box-nb3", "full"]

@@ -13,6 +13,7 @@ validate`'s medium 40 m/s ensembles are reused). Medium scale, plain concrete, i
 - at SWEEP_VELOCITY only, on seed 1: the fixed zones × n_b = 1, 2, 3: the default strip, a
   larger strip and a small box (the cheap end of the map: no full-width strip can be 5x
   cheaper at medium scale);
+- a fixed zone that qualifies on seed 1: on seeds 2 and 3 too (confirmations), judged on all;
 and at paper scale the configuration the medium map says pays (else the paper scale's own
 zone), coupled against full over 5 ms after contact, one seed. `--sweep full`: every velocity,
 the sweep at each, the default zone and the automatic one on seeds 1-3, the reinforced slab
@@ -66,6 +67,9 @@ TIMING_STEPS = (3, 30)    # warm-up and timed steps of the one-window timing of 
 TIMING_AFTER_CONTACT_S = 2e-4
 BENCH = Path(__file__).resolve().parents[2] / "bench" / "results.json"
 SWEEPS = ("default", "full")
+# the paper pair's seeds: one full paper run costs about 1.3 h of one core, a verdict against
+# the full scatter needs two (orchestrator/verdicts.py)
+PAPER_SEEDS = {"default": (1,), "full": (1, 2)}
 ONLY = ("medium", "paper")
 
 
@@ -158,11 +162,12 @@ def paper_steps(dt, velocity, gap=0.002):
 
 
 def plan(sweep="default", velocities=None, only=None, scale="medium", steps=None,
-         seeds=SEEDS, paper_config=None, bench=None):
+         seeds=SEEDS, paper_config=None, bench=None, paper_seeds=None):
     """The study's runs, in the order they run. scale, steps: the medium part's (a smaller
     scale and a few steps only to test the machinery); paper_config: the configuration the
     medium map chose (None: the paper scale's default zone until the map is made); bench:
-    the recorded benchmark (load_bench), for the paper pair's steps."""
+    the recorded benchmark (load_bench), for the paper pair's steps; paper_seeds: the paper
+    pair's (None: PAPER_SEEDS of the sweep)."""
     if sweep not in SWEEPS:
         raise ValueError(f"study: --sweep must be one of {', '.join(SWEEPS)}, got {sweep!r}")
     if only not in (None,) + ONLY:
@@ -178,7 +183,7 @@ def plan(sweep="default", velocities=None, only=None, scale="medium", steps=None
             for v in velocities:
                 runs += _reinforced(scale, float(v), steps, list(seeds))
     if only in (None, "paper"):
-        runs += _paper(sweep, paper_config, bench)
+        runs += _paper(paper_seeds or PAPER_SEEDS[sweep], paper_config, bench)
     return runs
 
 
@@ -214,6 +219,20 @@ def _medium(sweep, scale, v, steps, seeds):
     return runs
 
 
+def confirmations(runs, configs):
+    """The runs that confirm a fixed zone found to qualify on one seed (`configs`): the same
+    configuration on the other seeds of its impact's full ensemble, those not planned yet. One
+    packing is one sample of the coupled model's scatter too."""
+    planned = {(r.config, r.seed) for r in runs}
+    out = []
+    for c in configs:
+        first = next(r for r in runs if r.config == c)
+        seeds = sorted({r.seed for r in runs
+                        if r.config.model == "full" and r.config.group == c.group})
+        out += [Planned(c, s, first.steps) for s in seeds if (c, s) not in planned]
+    return out
+
+
 def _reinforced(scale, v, steps, seeds):
     """The reinforced slab at `v`: the default zone and the automatic one on every seed, then
     the full ensemble."""
@@ -224,13 +243,12 @@ def _reinforced(scale, v, steps, seeds):
             + [Planned(full, s, steps) for s in seeds])
 
 
-def _paper(sweep, config, bench):
+def _paper(seeds, config, bench):
     b = bench if bench is not None else load_bench()
     chosen = config is None
     coupled = config if config is not None else Config("paper", max(VELOCITIES), "coupled")
     coupled = replace(coupled, scale="paper")
     n = paper_steps(b["paper"]["full"]["dt"], coupled.velocity)
-    seeds = (1, 2) if sweep == "full" else (1,)
     return ([Planned(coupled, s, n, chosen=chosen) for s in seeds]
             + [Planned(Config("paper", coupled.velocity, "full"), s, n) for s in seeds])
 

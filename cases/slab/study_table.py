@@ -102,6 +102,8 @@ def config_row(c, members, full, full_cfg, found, timing):
         if full:
             full_spheres = _mean([r.summary["n_spheres"] for r in full.values()])
             row["sphere_ratio"] = full_spheres / row["spheres"]
+    row["warnings"] = {seed: s.get("warnings", []) for seed, (_, _, s) in done.items()
+                       if seed not in limit}
     row["speedup"] = _speedup(done, runs, full, found.get(full_cfg, {}), timing)
     row["accuracy"] = _accuracy(runs, {seed: done[seed][0] for seed in runs}, full)
     row["goal"] = goal(c.scale, row, limit)
@@ -225,8 +227,9 @@ def _sensor(groups_, paired, name):
         out["nrms"] = _combined(nrms_v)
         out["peak"] = _combined(peak_v)
         out["within"] = out["nrms"]["within"] and out["peak"]["within"]
+        out["null_within"] = out["nrms"]["null_within"] or out["peak"]["null_within"]
     else:
-        out["within"] = None
+        out["within"] = out["null_within"] = None
     return out
 
 
@@ -238,7 +241,7 @@ def _combined(vs):
     ok = all(x is not None for x in c + f)
     return {"coupled_max": max(c) if ok else None, "full_leave_one_out_max": min(f) if ok
             else None, "within": all(v["within"] for v in vs), "weak": any(v["weak"] for v in vs),
-            "n_full": vs[0]["n_full"]}
+            "null_within": any(v.get("null_within") for v in vs), "n_full": vs[0]["n_full"]}
 
 
 def _absolute(acc):
@@ -277,10 +280,26 @@ def goal(scale, row, limit):
         parts.append(f"{speed:.2f}x < {need:g}x per step")
     elif cheap is None:
         parts.append("no per-step speed-up measured")
+    blind = [n for n, s in acc["sensors"].items() if s.get("null_within")]
+    if acc["damage"]["damaged_volume_m3"]["verdict"].get("null_within"):
+        blind.append("damaged volume")
     weak = " (weak: 2 full runs)" if acc["weak"] else ""
+    if blind:
+        weak += (f" (a null prediction, no displacement or no damage, is within it too on: "
+                 f"{', '.join(blind)})")
     return {"qualifies": within and bool(cheap), "within_scatter": within, "cheap_enough": cheap,
+            "null_within": blind,
             "why": ("; ".join(parts) or f"within the full scatter{weak}, {speed:.2f}x >= "
                                         f"{need:g}x per step")}
+
+
+def qualifying_configs(table, runs):
+    """The planned fixed-zone configurations whose row in `table` qualifies."""
+    rows = {(i["group"], r["config"]) for i in table["impacts"] for r in i["configs"]
+            if r["goal"]["qualifies"]}
+    return list(dict.fromkeys(r.config for r in runs if r.config.model == "coupled"
+                              and r.config.zone != "auto"
+                              and (r.config.group, r.config.name) in rows))
 
 
 def choose(table):

@@ -28,6 +28,10 @@ def configure(p):
                    metavar="V,V,...",
                    help="impact velocities (m/s) among 10, 20, 40 (default: 10,40; full "
                         "sweep: 10,20,40)")
+    p.add_argument("--paper-seeds", type=list_of(int, "integers"), default=None,
+                   metavar="S,S,...",
+                   help="the paper pair's packing seeds (default: 1; full sweep: 1,2); a "
+                        "verdict against the paper scale's full scatter needs two")
     p.add_argument("--dry-run", action="store_true",
                    help="print the plan, one line per run with its projected cost, and stop")
     p.add_argument("--no-timing", action="store_true",
@@ -51,7 +55,8 @@ def run(args):
     bench = sp.load_bench()
     index = sp.ensemble_index(args.reuse_ensembles) if args.reuse_ensembles else {}
     options = dict(sweep=args.sweep, velocities=args.velocities, scale=args.scale,
-                   steps=args.steps, seeds=tuple(args.seeds or sp.SEEDS), bench=bench)
+                   steps=args.steps, seeds=tuple(args.seeds or sp.SEEDS), bench=bench,
+                   paper_seeds=None if args.paper_seeds is None else tuple(args.paper_seeds))
     out = Path(args.out)
     medium = sp.plan(only="medium", **options)      # --only says what runs, not what is shown
     if args.dry_run:
@@ -62,22 +67,30 @@ def run(args):
     _prepare(out)
     import_yade(args.threads)
     outcomes = execute(medium, out, index, args.quiet, dry=args.only == "paper")
-    choice = st.choose(st.build(medium, out, index))
+    # which zones qualify, to confirm and to take to paper scale, by the one-window timing:
+    # the runs' own wall times depend on what else the machine ran meanwhile
+    timing = lambda runs: None if args.no_timing else _timing(runs, outcomes, out)
+    extra = sp.confirmations(medium, st.qualifying_configs(
+        st.build(medium, out, index, timing(medium)), medium))
+    outcomes.update(execute(extra, out, index, args.quiet, dry=args.only == "paper"))
+    medium += extra
+    choice = st.choose(st.build(medium, out, index, timing(medium)))
     paper = sp.plan(only="paper", paper_config=choice, **options)
     outcomes.update(execute(paper, out, index, args.quiet, dry=args.only == "medium"))
     runs = medium + paper
-    timing = None
-    if not args.no_timing:
-        timing = _timing(runs, outcomes, out)
-    table = st.build(runs, out, index, timing)
+    table = st.build(runs, out, index, timing(runs))
     table["table1"] = report.table1(table)
     projected = _projected(runs, bench)
     table["plan"] = {"sweep": args.sweep, "projected_s": projected, "budget_s": sp.BUDGET_S,
                      "runs": [{"folder": r.folder, "seed": r.seed, "steps": r.spec().steps,
                                "status": outcomes[r.folder].status} for r in runs]}
     images = _plots(table, out, Path(args.doc).parent if args.doc else None)
-    command = "python3 -m orchestrator study" + ("" if args.sweep == "default"
-                                                 else f" --sweep {args.sweep}")
+    command = ("python3 -m orchestrator study"
+               + ("" if args.sweep == "default" else f" --sweep {args.sweep}")
+               + ("" if args.velocities is None else
+                  " --velocities " + ",".join(f"{v:g}" for v in args.velocities))
+               + ("" if args.paper_seeds is None else
+                  " --paper-seeds " + ",".join(map(str, args.paper_seeds))))
     text = report.doc(table, runs, outcomes, projected, args.sweep, images, command)
     report.write(table, out, Path(args.doc) if args.doc else None, text)
     for impact, row in report.qualifying(table):
@@ -131,12 +144,19 @@ def _plots(table, out, doc_dir):
 
 
 def _dry_run(medium, options, args, out, index, bench):
-    """The plan, one line per run: folder, steps, projected cost, and what is done."""
+    """The plan, one line per run: folder, steps, projected cost, and what is done (the
+    confirmations and the paper zone as the recorded timing.json says)."""
+    import json
     from cases.slab import study_plan as sp
-    from cases.slab.study_table import build, choose
-    choice = None
+    from cases.slab.study_table import build, choose, qualifying_configs
+    choice, confirming = None, "(seeds 2 and 3 of each fixed zone that qualifies on seed 1)"
     if all(sp.where(r, out, index)[1] is not None for r in medium if r.when is None):
-        choice = choose(build(medium, out, index))
+        path = out / "timing.json"
+        timing = None if args.no_timing or not path.is_file() else json.loads(path.read_text())
+        extra = sp.confirmations(medium, qualifying_configs(build(medium, out, index, timing),
+                                                            medium))
+        medium, confirming = medium + extra, None
+        choice = choose(build(medium, out, index, timing))
     paper = sp.plan(only="paper", paper_config=choice, **options)
     runs = {"medium": medium, "paper": paper, None: medium + paper}[args.only]
     total = conditional = 0.0
@@ -154,6 +174,8 @@ def _dry_run(medium, options, args, out, index, bench):
         if r.chosen:
             status += " (zone chosen by the medium map; shown: the paper scale's own)"
         print(f"{r.folder:46s} {r.spec().steps:6d} {cost:9.0f}s  {status}")
+    if confirming and args.only != "paper":
+        print(f"{'confirmations, once the map is made':46s} {'':6s} {'':>10s}  {confirming}")
     timing = sp.timing_cost(runs, bench)
     print(f"{'one-window timing of each model':46s} {'':6s} {timing:9.0f}s")
     every = sum(sp.run_cost(r, bench) for r in runs if r.when is None) + timing
