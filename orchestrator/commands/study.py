@@ -69,7 +69,8 @@ def run(args):
     outcomes = execute(medium, out, index, args.quiet, dry=args.only == "paper")
     # which zones qualify, to confirm and to take to paper scale, by the one-window timing:
     # the runs' own wall times depend on what else the machine ran meanwhile
-    timing = lambda runs: None if args.no_timing else _timing(runs, outcomes, out)
+    def timing(runs):
+        return None if args.no_timing else _timing(runs, outcomes, out)
     extra = sp.confirmations(medium, st.qualifying_configs(
         st.build(medium, out, index, timing(medium)), medium))
     outcomes.update(execute(extra, out, index, args.quiet, dry=args.only == "paper"))
