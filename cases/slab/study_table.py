@@ -275,22 +275,19 @@ def goal(scale, row, limit):
     if not volume:
         outside.append("damaged volume")
     within = not outside
-    parts = [f"outside the full scatter: {', '.join(outside)}"] if outside else []
-    if cheap is False:
-        parts.append(f"{speed:.2f}x < {need:g}x per step")
-    elif cheap is None:
-        parts.append("no per-step speed-up measured")
     blind = [n for n, s in acc["sensors"].items() if s.get("null_within")]
     if acc["damage"]["damaged_volume_m3"]["verdict"].get("null_within"):
         blind.append("damaged volume")
-    weak = " (weak: 2 full runs)" if acc["weak"] else ""
+    verdict = (f"outside the full scatter: {', '.join(outside)}" if outside else
+               "within the full scatter" + (" (weak: 2 full runs)" if acc["weak"] else ""))
     if blind:
-        weak += (f" (a null prediction, no displacement or no damage, is within it too on: "
-                 f"{', '.join(blind)})")
+        verdict += (f" (a null prediction, no displacement or no damage, is within it too on: "
+                    f"{', '.join(blind)})")
+    speed_part = ("no per-step speed-up measured" if cheap is None else
+                  f"{speed:.2f}x {'>=' if cheap else '<'} {need:g}x per step")
     return {"qualifies": within and bool(cheap), "within_scatter": within, "cheap_enough": cheap,
             "null_within": blind,
-            "why": ("; ".join(parts) or f"within the full scatter{weak}, {speed:.2f}x >= "
-                                        f"{need:g}x per step")}
+            "why": verdict + (", " if within and cheap else "; ") + speed_part}
 
 
 def qualifying_configs(table, runs):

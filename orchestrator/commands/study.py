@@ -133,6 +133,8 @@ def _plots(table, out, doc_dir):
     """One PNG per impact in `out`, and a copy beside the page; {group: path from the page}."""
     from cases.slab.study_report import plot_impact
     images = {}
+    if doc_dir is not None:
+        doc_dir.mkdir(parents=True, exist_ok=True)
     for impact in table["impacts"]:
         if impact["scale"] == "paper":
             continue
