@@ -71,11 +71,10 @@ def run(args):
     # the runs' own wall times depend on what else the machine ran meanwhile
     def timing(runs):
         return None if args.no_timing else _timing(runs, outcomes, out)
-    extra = sp.confirmations(medium, st.qualifying_configs(
-        st.build(medium, out, index, timing(medium)), medium))
-    outcomes.update(execute(extra, out, index, args.quiet, dry=args.only == "paper"))
-    medium += extra
-    choice = st.choose(st.build(medium, out, index, timing(medium)))
+    medium, choice = _confirm_and_choose(
+        medium, out, index, timing,
+        lambda extra: outcomes.update(execute(extra, out, index, args.quiet,
+                                              dry=args.only == "paper")))
     paper = sp.plan(only="paper", paper_config=choice, **options)
     outcomes.update(execute(paper, out, index, args.quiet, dry=args.only == "medium"))
     runs = medium + paper
@@ -123,6 +122,19 @@ def _timing(runs, outcomes, out):
     return time_models(runs, outcomes, path, previous)
 
 
+def _confirm_and_choose(medium, out, index, timing, run_extra):
+    """The fixed zones that qualify on seed 1, confirmed on the other seeds (`run_extra` runs
+    them), and the zone the map then chooses for paper scale; `timing(runs)`: the one-window
+    timing of the runs (None: their own wall times). Returns (medium runs and confirmations,
+    choice)."""
+    from cases.slab import study_plan as sp, study_table as st
+    extra = sp.confirmations(medium, st.qualifying_configs(
+        st.build(medium, out, index, timing(medium)), medium))
+    run_extra(extra)
+    medium = medium + extra
+    return medium, st.choose(st.build(medium, out, index, timing(medium)))
+
+
 def _projected(runs, bench):
     from cases.slab import study_plan as sp
     return (sum(sp.run_cost(r, bench) for r in runs if r.when is None)
@@ -151,15 +163,13 @@ def _dry_run(medium, options, args, out, index, bench):
     confirmations and the paper zone as the recorded timing.json says)."""
     import json
     from cases.slab import study_plan as sp
-    from cases.slab.study_table import build, choose, qualifying_configs
     choice, confirming = None, "(seeds 2 and 3 of each fixed zone that qualifies on seed 1)"
     if all(sp.where(r, out, index)[1] is not None for r in medium if r.when is None):
         path = out / "timing.json"
         timing = None if args.no_timing or not path.is_file() else json.loads(path.read_text())
-        extra = sp.confirmations(medium, qualifying_configs(build(medium, out, index, timing),
-                                                            medium))
-        medium, confirming = medium + extra, None
-        choice = choose(build(medium, out, index, timing))
+        medium, choice = _confirm_and_choose(medium, out, index, lambda runs: timing,
+                                             lambda extra: None)
+        confirming = None
     paper = sp.plan(only="paper", paper_config=choice, **options)
     runs = {"medium": medium, "paper": paper, None: medium + paper}[args.only]
     total = conditional = 0.0
