@@ -1,5 +1,6 @@
 """The DE zone the run finds for itself: exact trips of the FE-stress indicator on stretched
-FE blocks, the growth and the limit of the search, and the slab's checks of its options."""
+FE blocks, the growth and the limit of the search, the slab's checks of its options, and the
+post-run check of the run's peak FE stress."""
 import numpy as np
 import pytest
 
@@ -193,3 +194,29 @@ def test_case_files_take_zone_auto_and_its_table():
     assert (spec.zone, spec.zone_start, spec.trip_omega, spec.fallback) == ("auto", 0.3, 0.2, "full")
     with pytest.raises(ValueError, match=r"\n  - zone.trip_stress = 200.0: must be in \(0, 100\]"):
         load_case(slab_toml, ["slab.zone=auto", "zone.trip_stress=200.0"])
+
+
+def test_the_post_run_check_reads_the_runs_peak_stress_not_its_last():
+    """A stretch that rises to step 10 and falls back: σ1 = von Mises = E ε (uniaxial, exact on
+    Q1 cells) peaks at E · 10 δ = 4.2 MPa > ft at step 10 and ends at E · 2 δ = 0.84 MPa;
+    the recorder keeps the peak and its time, and the paper's check warns of it."""
+    from types import SimpleNamespace
+    from orchestrator.run.checks import post_run_checks
+    from orchestrator.run.outputs import fe_peak
+    from orchestrator.run.record import Recorder
+    from orchestrator.run.restart import Record
+    delta, dt = 1.4e-5, 1e-6
+    m = StretchedBlock(np.zeros((6, 4), bool), uniaxial(1.0))
+    recorder = SimpleNamespace(m=m, rec=Record())
+    for n in range(1, 19):
+        m.fe.u = min(n, 20 - n) * m.field * delta
+        Recorder._fe_peak(recorder, n * dt)
+    peak = fe_peak(recorder.rec)
+    assert peak["max_principal_Pa"] == pytest.approx(E * 10 * delta, rel=1e-12)
+    assert peak["von_mises_Pa"] == pytest.approx(E * 10 * delta, rel=1e-12)
+    assert peak["max_principal_t_s"] == peak["von_mises_t_s"] == 10 * dt
+    assert m.fe.stress().max_principal.max() == pytest.approx(E * 2 * delta, rel=1e-12)
+    assert post_run_checks(peak, np.zeros(0), FT, 40e6) == [
+        "FE principal stress 4.20 MPa (at t = 0.01 ms) exceeds the tensile strength 3.00 MPa: "
+        "the DE zone may be too small"]
+    assert post_run_checks(peak, np.zeros(0), 5e6, 40e6) == []

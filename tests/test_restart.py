@@ -74,6 +74,8 @@ def assert_same_results(a, b):
     sa, sb = (json.loads((d / "summary.json").read_text()) for d in (a, b))
     assert sa["energy"] == sb["energy"] and sa["damage"] == sb["damage"]
     assert sa["constraint_gap"] == sb["constraint_gap"] and len(sa["constraint_gap"]) > 1
+    assert sa["fe_peak_stress"] == sb["fe_peak_stress"]    # the checkpoint carries the peak
+    assert sa["fe_peak_stress"]["von_mises_Pa"] > 0
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])

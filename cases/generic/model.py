@@ -160,8 +160,9 @@ def run(case, out, force=False, quiet=False, resume=False):
             "notes": model.notes, "reference_energy_J": model.reference_energy}
     schedule = Schedule(model.run_steps, o["sample_every"], o["check_every"], o["every"],
                         o["checkpoint_every"])
-    checks = lambda damage: post_run_checks(model.fe, damage[model.bridge_index],
-                                            mat["tensile_strength"], mat["compressive_strength"])
+    def checks(damage, peak):
+        return post_run_checks(peak, damage[model.bridge_index], mat["tensile_strength"],
+                               mat["compressive_strength"])
     return run_loop(model, schedule, out, d["case"]["name"], model.reference_energy,
                     info=info, checks=checks, quiet=quiet, notes=model.notes, resume=resume,
                     inputs=case_inputs(case))

@@ -255,18 +255,18 @@ def run_built(m, out, quiet=False, resume=False, inputs=None):
                         spec.checkpoint_every)
     return run_loop(m, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
                     info=info, arrays={"slab_index": m.slab_index},
-                    checks=lambda damage: _post_run_checks(m, damage, info, bars),
+                    checks=lambda damage, peak: _post_run_checks(m, damage, peak, info, bars),
                     quiet=quiet, resume=resume,
                     inputs=spec_inputs(spec, model) if inputs is None else inputs)
 
 
-def _post_run_checks(m, damage, info, bars=None):
+def _post_run_checks(m, damage, fe_peak, info, bars=None):
     """The paper's two checks: the FE stays elastic; the bridging spheres stay undamaged. For
     the full model, their counterpart: links where the coupled model has its band and FE that
     passed their tensile strength (ω > 0), which an elastic FE there cannot follow; and
     info["links_outside_de_zone"]: how many links are damaged there (cases.slab.variants)."""
     from orchestrator.run.checks import post_run_checks
-    warnings = post_run_checks(m.fe, damage[m.bridge_index], m.spec.tensile_strength,
+    warnings = post_run_checks(fe_peak, damage[m.bridge_index], m.spec.tensile_strength,
                                m.spec.compressive_strength)
     if m.yield_watch is not None:
         warnings += m.yield_watch.warnings()

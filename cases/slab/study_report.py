@@ -265,9 +265,11 @@ def _method_lines():
             "(its deviation is exact: 1 for a peak or the damaged volume, rms / peak of the "
             "full mean for an nRMS). The goal's line names such figures: they are no "
             "evidence for the coupled model.",
-            "- Post-run checks: the paper's two a-posteriori checks at the end of each run "
-            "(FE stress against the concrete's strengths, damaged bridging spheres), as the "
-            "run's `summary.json` warns.",
+            "- Post-run checks: the paper's two a-posteriori checks, made at the end of each "
+            "run: the FE's peak stress over the run (`fe_peak_stress`, read at every sensor "
+            "sample) against the concrete's strengths, and the damaged bridging spheres, as "
+            "the run's `summary.json` warns (runs written before `fe_peak_stress` existed "
+            "checked the last state's stress only).",
             "- The default plan is chosen for about 3 h of one core (the projection below, "
             "from bench/results.json): 10 and 40 m/s, the zones × n_b sweep at 10 m/s; "
             "`--sweep full` runs 10, 20 and 40 m/s, the sweep at each, the default and "

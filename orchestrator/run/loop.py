@@ -39,7 +39,8 @@ def run(model, schedule, out, title, reference_energy, info=None, arrays=None, c
     info: entries put first in summary.json; arrays: extra entries of damage.npz; inputs:
     what the results depend on (orchestrator.run.inputs), kept in checkpoints and compared
     on resume;
-    checks(final_damage) -> warnings; notes: set-up remarks for the log; resume: carry on
+    checks(final_damage, fe_peak) -> warnings (fe_peak: outputs.fe_peak, None without FE);
+    notes: set-up remarks for the log; resume: carry on
     from the checkpoint in `out`. Checkpoints every schedule.checkpoint_every steps and when
     SIGTERM asks the run to stop (then raises restart.Stopped). Returns the summary.
     """
@@ -62,7 +63,8 @@ def run(model, schedule, out, title, reference_energy, info=None, arrays=None, c
         recorder = Recorder(m, out, meta, reference_energy, log, resume)
         _loop(m, schedule, recorder, title, quiet)
         wall = recorder.finish()
-        warnings = list(checks(recorder.rec.maps[-1])) if checks else []
+        peak = None if m.fe is None else outputs.fe_peak(recorder.rec)
+        warnings = list(checks(recorder.rec.maps[-1], peak)) if checks else []
         summary = outputs.summary(m, recorder.rec, schedule, wall, recorder.seconds(),
                                   warnings, info)
         outputs.write_results(out, title, m, recorder.rec, summary, arrays)

@@ -33,9 +33,17 @@ def summary(model, rec, schedule, wall, seconds, warnings, info):
         "coupling_energy_J": None if stepper is None else {
             "to_fe": stepper.exchange.to_fe, "net": stepper.exchange.net},
         "coupling": None if stepper is None else coupling_figures(stepper.coupling),
+        "fe_peak_stress": None if m.fe is None else fe_peak(rec),
         "warnings": warnings,
     })
     return out
+
+
+def fe_peak(rec):
+    """The FE's largest cell stresses over the run's samples, with their times."""
+    s1, t1, vm, t2 = rec.fe_peak
+    return {"max_principal_Pa": s1, "max_principal_t_s": t1, "von_mises_Pa": vm,
+            "von_mises_t_s": t2}
 
 
 def coupling_figures(c):

@@ -45,6 +45,8 @@ class Record:
     gaps: list = field(default_factory=list)      # (t, constraint gap before, after) per check
     seconds: dict = field(default_factory=dict)   # time split of the earlier run segments
     wall_s: float = 0.0                           # wall time of earlier run segments
+    fe_peak: list = field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
+    # the FE's largest cell σ1 over the samples and its time, then its largest von Mises and time
 
 
 def fingerprint(model, title, steps):
@@ -68,7 +70,7 @@ def save(out, record, model, meta, seconds):
              "history": np.array(record.history), "energy": np.array(record.energy).reshape(-1, 2),
              "maps_t": np.array(record.maps_t), "maps": np.array(record.maps),
              "gaps": np.array(record.gaps).reshape(-1, 3),
-             "wall_s": record.wall_s}
+             "wall_s": record.wall_s, "fe_peak": np.array(record.fe_peak)}
     if model.fe is not None:
         state.update(fe_u=model.fe.u, fe_v=model.fe.v, fe_t=model.fe.t)
     stepper = model.stepper
@@ -130,7 +132,7 @@ def load(out, model, meta):
             state = {k: data[k] for k in data.files}
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
         raise ValueError(f"{folder / 'state.npz'}: unreadable checkpoint file ({e})") from None
-    needed = ["n", "times", "history", "energy", "maps_t", "maps", "gaps", "wall_s"]
+    needed = ["n", "times", "history", "energy", "maps_t", "maps", "gaps", "wall_s", "fe_peak"]
     needed += ["fe_u", "fe_v", "fe_t"] if model.fe is not None else []
     needed += ["rotation", "rotation_pred"] if model.stepper is not None else []
     missing = [k for k in needed if k not in state]
@@ -149,7 +151,7 @@ def load(out, model, meta):
     return Record(int(state["n"]), list(state["times"]), list(state["history"]),
                   [tuple(e) for e in state["energy"]], list(state["maps_t"]),
                   list(state["maps"]), [tuple(g) for g in state["gaps"]], saved["seconds"],
-                  float(state["wall_s"]))
+                  float(state["wall_s"]), [float(v) for v in state["fe_peak"]])
 
 
 def _folder(out):
