@@ -220,3 +220,13 @@ def test_the_post_run_check_reads_the_runs_peak_stress_not_its_last():
         "FE principal stress 4.20 MPa (at t = 0.01 ms) exceeds the tensile strength 3.00 MPa: "
         "the DE zone may be too small"]
     assert post_run_checks(peak, np.zeros(0), 5e6, 40e6) == []
+
+
+def test_an_ensemble_member_whose_zone_search_ends_at_its_limit_is_named_as_such(tmp_path):
+    import json
+    from orchestrator.commands.slab import _why_no_result
+    (tmp_path / "summary.json").write_text(json.dumps(
+        {"zone_outcome": "limit", "zone_limit_reached": "cost", "zone_attempts": [{}] * 9}))
+    assert _why_no_result(tmp_path, 1) == ("coupling cannot pay: its zone search reached the "
+                                           "budget, zone.cost after 9 attempts")
+    assert _why_no_result(tmp_path / "none", 1) == "exit 1"

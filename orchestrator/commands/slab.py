@@ -118,11 +118,27 @@ def _ensemble(model, args):
 
     with ThreadPoolExecutor(max_workers=jobs) as pool:
         codes = dict(zip(args.seeds, pool.map(member, args.seeds)))
-    failed = [f"seed {s} (exit {c})" for s, c in codes.items() if c]
+    failed = [f"seed {s} ({_why_no_result(top / f'seed-{s}', c)})"
+              for s, c in codes.items() if c]
     if failed:
-        raise ValueError(f"ensemble {top}: {len(failed)} of {len(codes)} members failed: "
-                         f"{', '.join(failed)}; each member's folder says why")
+        raise ValueError(f"ensemble {top}: {len(failed)} of {len(codes)} members gave no "
+                         f"result: {', '.join(failed)}; each member's folder says why")
     return 0
+
+
+def _why_no_result(folder, code):
+    """A member's exit `code`, or what its automatic zone reached (an outcome, not a fault)."""
+    import json
+    try:
+        s = json.loads((folder / "summary.json").read_text())
+    except (OSError, ValueError):
+        return f"exit {code}"
+    if s.get("zone_outcome") != "limit":
+        return f"exit {code}"
+    reached = {"cells": "the zone's limit", "cost": "the budget, zone.cost"}
+    return (f"coupling cannot pay: its zone search reached "
+            f"{reached.get(s.get('zone_limit_reached'), 'its limit')} after "
+            f"{len(s.get('zone_attempts', []))} attempts")
 
 
 def _spec_argv(args, seed):
