@@ -1,7 +1,9 @@
 """Runs stopped by SIGTERM or killed by SIGKILL, then resumed, end exactly as an uninterrupted
 run: a checkpoint holds the whole state (YADE scene with its CPM history, FE, coupling, run
 loop), the model is rebuilt deterministically, and with one OpenMP thread every sum is done in
-the same order. Bad checkpoints are refused before anything is loaded."""
+the same order (until a contact new since the checkpoint forms: YADE's collider places it
+elsewhere after a load, docs/case-files.md; none forms here). Bad checkpoints are refused
+before anything is loaded."""
 import json
 import os
 import signal

@@ -11,7 +11,8 @@ bit against Python's read-only view before anything is saved, and again after it
 
 A restarted run then continues identically until the collider, which rebuilds its bounds on
 load, lets a new contact into the interaction container at another place: forces on a sphere
-are then summed in another order, a round-off difference (measured in tests/test_checkpoint.py).
+are then summed in another order, a round-off difference (measured on a medium slab:
+docs/case-files.md, "Long runs").
 """
 import zipfile
 from pathlib import Path
