@@ -2,7 +2,7 @@
 run: a checkpoint holds the whole state (YADE scene with its CPM history, FE, coupling, run
 loop), the model is rebuilt deterministically, and with one OpenMP thread every sum is done in
 the same order (until a contact new since the checkpoint forms: YADE's collider places it
-elsewhere after a load, docs/case-files.md; none forms here). Bad checkpoints are refused
+elsewhere after a load, docs/case-files.md; this case ends bit-identical). Bad checkpoints are refused
 before anything is loaded."""
 import json
 import os
