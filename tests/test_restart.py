@@ -2,8 +2,8 @@
 run: a checkpoint holds the whole state (YADE scene with its CPM history, FE, coupling, run
 loop), the model is rebuilt deterministically, and with one OpenMP thread every sum is done in
 the same order (until a contact new since the checkpoint forms: YADE's collider places it
-elsewhere after a load, docs/case-files.md; this case ends bit-identical). Bad checkpoints are refused
-before anything is loaded."""
+elsewhere after a load, docs/case-files.md; this case ends bit-identical). Bad checkpoints
+are refused before anything is loaded."""
 import json
 import os
 import signal
