@@ -224,6 +224,8 @@ def test_a_scatter_a_null_prediction_lies_in_is_named_and_checks_are_shown(tmp_p
     outcomes = execute(runs, tmp_path, {}, log=lambda line: None, dry=True)
     text = report.doc(table, runs, outcomes, 3600.0, "default", {}, "study")
     assert f"the paper's post-run checks: {shown}" in text
+    # a summary without fe_peak_stress was written before the peak was recorded
+    assert "1 of the 1 coupled runs here were written before the peak was recorded" in text
 
 
 def test_one_full_paper_run_gives_the_paired_goals_and_table1(tmp_path):
@@ -419,3 +421,13 @@ def test_an_interrupted_run_of_the_study_carries_on_from_its_checkpoint(tmp_path
     assert "resumed from the checkpoint of step 40" in (folder / "run.log").read_text()
     _, _, carried_on = read_sensors(folder / "sensors.csv")
     assert np.array_equal(whole, carried_on)
+
+
+def test_the_page_counts_the_coupled_runs_whose_fe_check_read_the_last_state():
+    NS = SimpleNamespace
+    runs = [NS(config=NS(model=m), folder=f) for m, f in
+            (("coupled", "a"), ("coupled", "b"), ("coupled", "c"), ("full", "d"))]
+    done = {"n_spheres": 1}
+    outcomes = {"a": NS(summary=done), "b": NS(summary={**done, "fe_peak_stress": {}}),
+                "c": NS(summary=None), "d": NS(summary=done)}
+    assert report._last_state_runs(runs, outcomes) == (1, 2)
