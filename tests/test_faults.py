@@ -359,6 +359,18 @@ def test_a_checkpoint_is_resumed_by_the_command_that_wrote_it(stopped, capsys):
     assert "not of a slab run: resume it with `run --resume`" in one_line_error(capsys, code)
 
 
+def test_a_checkpoint_without_the_fe_peak_stress_is_refused_in_one_line(stopped, capsys):
+    """A checkpoint of a version that did not record the FE's peak stress: a resumed run's
+    post-run check would miss the peak before the checkpoint."""
+    state = stopped / "checkpoint" / "state.npz"
+    with np.load(state) as data:
+        kept = {k: data[k] for k in data.files if k != "fe_peak"}
+    np.savez(state, **kept)
+    code = main(["run", "--resume", str(stopped), "--quiet"])
+    assert "a checkpoint of an earlier version, which did not record the FE's peak stress" \
+        in one_line_error(capsys, code)
+
+
 def test_a_finished_run_is_not_resumed(stopped, capsys):
     (stopped / "summary.json").write_text("{}")
     code = main(["run", "--resume", str(stopped), "--quiet"])

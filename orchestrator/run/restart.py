@@ -136,6 +136,9 @@ def load(out, model, meta):
     needed += ["fe_u", "fe_v", "fe_t"] if model.fe is not None else []
     needed += ["rotation", "rotation_pred"] if model.stepper is not None else []
     missing = [k for k in needed if k not in state]
+    if missing == ["fe_peak"]:
+        raise ValueError(f"{folder / 'state.npz'}: a checkpoint of an earlier version, which did "
+                         f"not record the FE's peak stress: run it again from the start")
     if missing:
         raise ValueError(f"{folder / 'state.npz'}: unreadable checkpoint file (no "
                          f"{', '.join(missing)} in it)")
