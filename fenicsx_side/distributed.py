@@ -22,7 +22,8 @@ class RankZeroModel:
 
     Global arrays, gathered once: nodes, mass, fixed, cell_nodes (global node indices), and
     ndof. Collective calls: predict, correct, u, v, kinetic_energy, strain_energy,
-    critical_dt, point_operators, stress; ranks other than 0 call serve() instead.
+    critical_dt, point_operators, check_covered, stress; ranks other than 0 call serve()
+    instead.
     """
 
     def __init__(self, model):
@@ -85,6 +86,9 @@ class RankZeroModel:
     def stress(self):
         return self._call("stress")
 
+    def check_covered(self, points):
+        self._call("check_covered", np.asarray(points, float))
+
     def stop(self):
         """Release the other ranks from serve() (once)."""
         if not self._stopped:
@@ -144,6 +148,13 @@ class RankZeroModel:
 
     def _point_operators(self, points):
         return self.model.point_operators(points)
+
+    def _check_covered(self, points):
+        try:
+            self.model.check_covered(points)
+        except ValueError:      # every rank finds it; rank 0 reports it, the others go on
+            if self.rank == 0:
+                raise
 
     def _stress(self):
         s = self.model.stress()

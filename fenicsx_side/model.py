@@ -222,6 +222,21 @@ class ElasticModel:
         _check_located(found, points)
         return cells, X
 
+    def check_covered(self, points):
+        """Raise ValueError naming the first point in no cell of the mesh (collective: the
+        cells of every rank count)."""
+        points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+        self._owners(points, self._locate_owned(points)[0])
+
+    def _owners(self, points, found):
+        """The lowest rank owning a cell that holds each point (collective); ValueError if a
+        point is in none."""
+        size = self.comm.size
+        owner = np.where(found, self.comm.rank, size).astype(np.int64)
+        self.comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
+        _check_located(owner < size, points)
+        return owner
+
     def _locate_owned(self, points):
         """(found mask, cells, X) over the cells this rank owns; cells and X of the found
         points only."""
@@ -249,11 +264,8 @@ class ElasticModel:
         rank owning a cell that contains it, and every rank gets the whole operators."""
         points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
         found, cells, X = self._locate_owned(points)
-        size, rank = self.comm.size, self.comm.rank
-        owner = np.where(found, rank, size).astype(np.int64)
-        self.comm.Allreduce(MPI.IN_PLACE, owner, op=MPI.MIN)
-        _check_located(owner < size, points)
-        mine = owner[found] == rank
+        owner = self._owners(points, found)
+        mine = owner[found] == self.comm.rank
         cells, X = cells[mine], X[mine]
         n = len(points)
         N, grad = self._basis_at(cells, X)

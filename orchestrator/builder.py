@@ -252,7 +252,7 @@ def _coupled_spheres(d, fe, ref_pos, problems):
                         f"{d.bridging.width:g} m)")
         return index
     try:
-        fe.locate(ref_pos[index])
+        fe.check_covered(ref_pos[index])
     except ValueError as e:       # it names the first sphere outside and counts them
         problems.append(f"coupling: bridging spheres in no FE element: {e}; the mesh must "
                         f"cover the bridging domain (coupling.zone_lo, zone_hi, layers, "

@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 SCRIPT = Path(__file__).parent / "mpi" / "fe_against_serial.py"
 
 
@@ -25,3 +27,29 @@ def test_two_ranks_give_the_serial_model_to_round_off():
     # carries that forward additively: 300 steps x O(10 eps) stays below 1e-12.
     for key in ("u", "v", "kinetic_energy", "strain_energy"):
         assert r[key] < 1e-12, (key, r[key])
+
+
+def test_the_coupled_slab_runs_under_mpirun_as_in_serial(tmp_path):
+    """`mpirun -n 2 ... slab --model coupled` (docs/mpi.md): the builder's check that every
+    bridging sphere lies in an FE cell is collective, and the run gives the serial run's
+    results to round-off (the FE sums rows in another order)."""
+    import numpy as np
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
+               OMP_NUM_THREADS="1")
+    slab = [sys.executable, "-m", "orchestrator", "slab", "--model", "coupled", "--scale",
+            "small", "--steps", "60", "--quiet", "--out"]
+    root = Path(__file__).resolve().parents[1]
+    for cmd in (["mpirun", "-n", "2"] + slab + [str(tmp_path / "mpi")],
+                slab + [str(tmp_path / "serial")]):
+        proc = subprocess.run(cmd, env=env, cwd=root, capture_output=True, text=True,
+                              timeout=600)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+    a, b = (json.loads((tmp_path / d / "summary.json").read_text()) for d in ("mpi", "serial"))
+    for key in ("n_spheres", "n_fe_nodes", "n_bridging_spheres", "damage"):
+        assert a[key] == b[key], key
+    x, y = (np.loadtxt(tmp_path / d / "sensors.csv", delimiter=",", skiprows=1)
+            for d in ("mpi", "serial"))
+    peak = np.abs(y[:, 1:]).max()
+    assert peak > 0 and np.abs(x - y).max() <= 1e-9 * peak
+    assert a["fe_peak_stress"]["von_mises_Pa"] == pytest.approx(
+        b["fe_peak_stress"]["von_mises_Pa"], rel=1e-9)

@@ -105,6 +105,9 @@ def test_point_outside_the_mesh_is_named(model):
     with pytest.raises(ValueError, match=r"point 1 at \[0.5, 0.5, 0.41\] is in no FE cell "
                                          r"\(2 of 3 points"):
         model.point_operators(points)
+    with pytest.raises(ValueError, match=r"point 1 at \[0.5, 0.5, 0.41\] is in no FE cell"):
+        model.check_covered(points)
+    model.check_covered(points[:1])
 
 
 def test_normal_only_dirichlet_faces():
