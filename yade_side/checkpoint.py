@@ -9,10 +9,10 @@ after loading, straight into YADE's memory (yade_side.memory): their offset in t
 object is found by matching the values Python reads, and every link is verified bit for
 bit against Python's read-only view before anything is saved, and again after it is restored.
 
-A restarted run then continues identically until the collider, which rebuilds its bounds on
-load, lets a new contact into the interaction container at another place: forces on a sphere
-are then summed in another order, a round-off difference (measured on a medium slab:
-docs/case-files.md, "Long runs").
+A restarted run then continues identically until a new contact forms: `O.save` keeps only
+the real interactions, the collider makes its candidate pairs again after the load at the
+end of the interaction container, and a candidate that becomes a contact there has its forces
+summed in another order: a round-off difference (measured: docs/case-files.md, "Long runs").
 """
 import zipfile
 from pathlib import Path
