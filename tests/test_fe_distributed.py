@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 SCRIPT = Path(__file__).parent / "mpi" / "fe_against_serial.py"
@@ -33,7 +34,6 @@ def test_the_coupled_slab_runs_under_mpirun_as_in_serial(tmp_path):
     """`mpirun -n 2 ... slab --model coupled` (docs/mpi.md): the builder's check that every
     bridging sphere lies in an FE cell is collective, and the run gives the serial run's
     results to round-off (the FE sums rows in another order)."""
-    import numpy as np
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMP_NUM_THREADS="1")
     slab = [sys.executable, "-m", "orchestrator", "slab", "--model", "coupled", "--scale",

@@ -45,8 +45,8 @@ class Record:
     gaps: list = field(default_factory=list)      # (t, constraint gap before, after) per check
     seconds: dict = field(default_factory=dict)   # time split of the earlier run segments
     wall_s: float = 0.0                           # wall time of earlier run segments
-    fe_peak: list = field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
     # the FE's largest cell σ1 over the samples and its time, then its largest von Mises and time
+    fe_peak: list = field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
 
 
 def fingerprint(model, title, steps):
