@@ -16,7 +16,7 @@ setup: $(STAMP)
 $(STAMP): docker/packages.txt
 	apt-get update
 	DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $(PKGS)
-	$(PY) -c "import orchestrator.env as e; e.check()"
+	$(PY) -c "import cli.env as e; e.check()"
 	touch $@
 
 # Optional package sets (same idempotent stamp scheme): ParaView for `render`, and the tools that
@@ -44,27 +44,27 @@ setup-image-build: .setup-image-build-done
 # full model's own scatter between packings (docs/slab.md).
 SEEDS ?= 1,2,3
 run: setup
-	$(PY) -m orchestrator slab --model full --scale small --seeds $(SEEDS) --out results/slab-small/full --force
-	$(PY) -m orchestrator slab --model coupled --scale small --seeds $(SEEDS) --out results/slab-small/coupled --force
-	$(PY) -m orchestrator compare results/slab-small/full results/slab-small/coupled --out results/slab-small/compare --force
+	$(PY) -m cli slab --model full --scale small --seeds $(SEEDS) --out results/slab-small/full --force
+	$(PY) -m cli slab --model coupled --scale small --seeds $(SEEDS) --out results/slab-small/coupled --force
+	$(PY) -m cli compare results/slab-small/full results/slab-small/coupled --out results/slab-small/compare --force
 	@$(MAKE) --no-print-directory render
 
 # Heavier reference ensembles (docs/slab.md): medium scale, three seeds of each model, and
 # the full model kept elastic outside the DE zone (the coupling error alone); about 1 h on 2 cores.
 validate: setup
-	$(PY) -m orchestrator slab --model full --scale medium --seeds $(SEEDS) --out results/slab-medium/full --force
-	$(PY) -m orchestrator slab --model coupled --scale medium --seeds $(SEEDS) --out results/slab-medium/coupled --force
-	$(PY) -m orchestrator compare results/slab-medium/full results/slab-medium/coupled --out results/slab-medium/compare --force
-	$(PY) -m orchestrator slab --model full --elastic-outside --scale medium --seeds $(SEEDS) --out results/slab-medium/full-elastic-outside --force
-	$(PY) -m orchestrator compare results/slab-medium/full-elastic-outside results/slab-medium/coupled --out results/slab-medium/compare-elastic-outside --force
+	$(PY) -m cli slab --model full --scale medium --seeds $(SEEDS) --out results/slab-medium/full --force
+	$(PY) -m cli slab --model coupled --scale medium --seeds $(SEEDS) --out results/slab-medium/coupled --force
+	$(PY) -m cli compare results/slab-medium/full results/slab-medium/coupled --out results/slab-medium/compare --force
+	$(PY) -m cli slab --model full --elastic-outside --scale medium --seeds $(SEEDS) --out results/slab-medium/full-elastic-outside --force
+	$(PY) -m cli compare results/slab-medium/full-elastic-outside results/slab-medium/coupled --out results/slab-medium/compare-elastic-outside --force
 
 # ParaView pictures of the coupled and full small slabs of seed 1 (cut through the impact
 # point) and a film of the coupled one, in results/slab-small/*/seed-1/render/; when ParaView
 # is missing, says how to install it.
 render:
 	@if command -v pvpython >/dev/null && command -v xvfb-run >/dev/null; then \
-	  $(PY) -m orchestrator render results/slab-small/coupled/seed-1 --animate --force && \
-	  $(PY) -m orchestrator render results/slab-small/full/seed-1 --force; \
+	  $(PY) -m cli render results/slab-small/coupled/seed-1 --animate --force && \
+	  $(PY) -m cli render results/slab-small/full/seed-1 --force; \
 	else echo "pictures skipped: ParaView is not installed (make setup-paraview installs it)"; fi
 
 test: setup
@@ -82,7 +82,7 @@ docker-test: setup setup-image-build
 
 # The paper's 1D spurious-reflection study (Figs. 4-7), about 3 min: results/wave1d-study/
 wave1d-study: setup
-	$(PY) -m orchestrator wave1d-study --out results/wave1d-study --force
+	$(PY) -m cli wave1d-study --out results/wave1d-study --force
 
 # Slab full vs coupled at small, medium and paper scale against the performance goals:
 # bench/results.json and docs/benchmarks.md (about 10 min; BENCH_ARGS=--quick: 1-2 min)
@@ -94,7 +94,7 @@ bench: setup
 # about 3 h of one core (STUDY_ARGS="--dry-run" prints the plan and its projected cost;
 # "--reuse-ensembles results/slab-medium" reuses make validate's runs; "--sweep full": 6.4 h).
 study: setup
-	$(PY) -m orchestrator study $(STUDY_ARGS)
+	$(PY) -m cli study $(STUDY_ARGS)
 
 clean:
 	rm -rf results .pytest_cache $(STAMP)

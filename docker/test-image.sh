@@ -59,7 +59,7 @@ else
     trap 'buildah umount "$c" >/dev/null 2>&1 || true; buildah rm "$c" >/dev/null' EXIT
     buildah copy "$c" "$OUT/in/params.csv" /tmp/runs/in/params.csv >/dev/null
     buildah run --isolation chroot "$c" -- /usr/bin/python3 -c \
-        "import orchestrator.env as e; e.check()"
+        "import cli.env as e; e.check()"
     # shellcheck disable=SC2086  # the entrypoint's words
     buildah run --isolation chroot "$c" -- $entrypoint cases/block_impact.toml \
         --table /tmp/runs/in/params.csv --out /tmp/runs/sweep

@@ -13,7 +13,7 @@ SCRIPT = """
 import json, sys
 import numpy as np
 exec(open(%(user)r).read().replace("O.run(2000, True)", ""))   # the user's script, unchanged
-from orchestrator.attach import attach
+from cli.attach import attach
 model = attach(%(case)r, ["coupling.variant='full'", "coupling.relaxation=1.0"])
 model.bridge.set_velocity(np.random.default_rng(2).normal(size=(len(model.bridge), 3)))
 O.run(20, True)
@@ -49,6 +49,6 @@ def test_a_script_under_yades_launcher_couples_with_one_call(tmp_path):
 
 
 def test_attach_refuses_a_case_file_with_its_own_de_part(tmp_path):
-    r = yade(tmp_path, f"from orchestrator.attach import attach\nattach({str(CASE)!r})\n")
+    r = yade(tmp_path, f"from cli.attach import attach\nattach({str(CASE)!r})\n")
     assert r.returncode != 0
     assert "de.current = true: the YADE scene already built is the DE part" in r.stderr

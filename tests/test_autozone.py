@@ -136,7 +136,7 @@ def test_slab_budget_counts_sphere_steps_spent_and_one_whole_run_of_the_last_zon
     × 500 steps and 5,000 × 200: 3e6 spent, and the next attempt ≥ 5,000 × 1,000 = 5e6: 8e6,
     under zone.cost 1 (1e7) and over zone.cost 0.8 (8e6 is not below it); 0 never stops."""
     from cases.slab import SlabSpec
-    from cases.slab.zone import over_budget, search_cost
+    from cases.slab.search import over_budget, search_cost
     attempts = [{"spheres": 4000, "steps_run": 500}, {"spheres": 5000, "steps_run": 200}]
     spec = SlabSpec(steps=1000)
     assert search_cost(attempts, 1000) == (3_000_000, 5_000_000)
@@ -224,7 +224,7 @@ def test_the_post_run_check_reads_the_runs_peak_stress_not_its_last():
 
 def test_an_ensemble_member_whose_zone_search_ends_at_its_limit_is_named_as_such(tmp_path):
     import json
-    from orchestrator.commands.slab import _why_no_result
+    from cli.commands.slab import _why_no_result
     (tmp_path / "summary.json").write_text(json.dumps(
         {"zone_outcome": "limit", "zone_limit_reached": "cost", "zone_attempts": [{}] * 9}))
     assert _why_no_result(tmp_path, 1) == ("coupling cannot pay: its zone search reached the "

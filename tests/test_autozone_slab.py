@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from orchestrator.cli import main
+from cli.main import main
 
 pytestmark = pytest.mark.slow
 STEPS = 100   # contact at step ~33; σ1 passes 0.05 ft at step ~90 with a 0.3 m start zone

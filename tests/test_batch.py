@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator.batch import Job, key_results, plan, read_table, toml_value, write_summary
+from cli.batch import Job, key_results, plan, read_table, toml_value, write_summary
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -81,7 +81,7 @@ def test_summary_flattens_scalars_and_lists_failures(tmp_path):
 def test_a_batch_runs_a_parameter_table_and_lists_its_failure(tmp_path):
     """The entrypoint outside Docker: one case, a table of two good rows and a bad one, two
     runs at a time; each run's folder, the summary CSV with key results, the failure named."""
-    from orchestrator.cli import main
+    from cli.main import main
     table = tmp_path / "params.csv"
     table.write_text("name,coupling.relaxation,time.duration\n"
                      "r5,5.0,2e-5\nr20,20.0,2e-5\nbad,-1.0,2e-5\n")

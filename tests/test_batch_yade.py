@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from orchestrator.batch import SCRIPT_TABLE, plan, read_table
-from orchestrator.cli import main
+from cli.batch import SCRIPT_TABLE, plan, read_table
+from cli.main import main
 from yade_side import import_yade
 from yade_side.output import read_series
 
@@ -160,11 +160,11 @@ def test_a_script_reads_its_row_under_run_and_batch(tmp_path):
     own.write_text("speed\n12.5\n25\n")
     for env, out, speed in ((run_env(), "alone", 30.0),
                             ({**run_env(), "YADE_BATCH": f"{own}:3"}, "row3", 25.0)):
-        subprocess.run([sys.executable, "-m", "orchestrator", "run", str(case), "--out",
+        subprocess.run([sys.executable, "-m", "cli", "run", str(case), "--out",
                         str(tmp_path / out), "--quiet"], cwd=ROOT, env=env, check=True,
                        capture_output=True)
         assert impactor_speed(tmp_path / out) == speed
-    subprocess.run([sys.executable, "-m", "orchestrator", "batch", str(case), "--table",
+    subprocess.run([sys.executable, "-m", "cli", "batch", str(case), "--table",
                     str(table), "--out", str(tmp_path / "sweep")], cwd=ROOT, env=run_env(),
                    check=True, capture_output=True)
     with open(tmp_path / "sweep" / "batch_summary.csv") as f:
@@ -197,7 +197,7 @@ def test_slurm_script_has_one_array_task_per_row(tmp_path, capsys):
     script = (out / "batch.sbatch").read_text()
     assert "#SBATCH --array=0-2\n" in script
     assert script.splitlines()[-1] == (
-        f"exec {sys.executable} -m orchestrator batch {case} --table {table} --out {out} "
+        f"exec {sys.executable} -m cli batch {case} --table {table} --out {out} "
         f'--task "$SLURM_ARRAY_TASK_ID"')
     assert oct((out / "batch.sbatch").stat().st_mode & 0o777) == oct(0o755)
     assert capsys.readouterr().out.endswith(f"submit with: sbatch {out / 'batch.sbatch'}\n")
@@ -211,7 +211,7 @@ def slurm_batch(tmp_path):
     table = tmp_path / "p.table"
     table.write_text("coupling.relaxation time.duration description\n5 4e-6 r5\n20 = r20\n")
     out = tmp_path / "sweep"
-    subprocess.run([sys.executable, "-m", "orchestrator", "batch", "cases/block_impact.toml",
+    subprocess.run([sys.executable, "-m", "cli", "batch", "cases/block_impact.toml",
                     "--table", str(table), "--slurm", "--out", str(out)], cwd=ROOT,
                    check=True, capture_output=True)
     return out

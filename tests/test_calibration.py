@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from yade_side import import_yade
-from yade_side.calibration import (Loading, Sample, Target, calibrate, packed_sample, summary,
-                                   uniaxial_test)
+from yade_side.calibration import Loading, Sample, packed_sample, summary, uniaxial_test
+from yade_side.fit import Target, calibrate
 from yade_side.material import ConcreteParams
 
 yade = import_yade()
@@ -109,7 +109,7 @@ def test_bad_input_is_refused_with_the_value():
 
 
 def test_cli_reports_bad_input_without_traceback(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "orchestrator", "calibrate", "--radius", "-0.01",
+    r = subprocess.run([sys.executable, "-m", "cli", "calibrate", "--radius", "-0.01",
                         "--out", str(tmp_path / "c")], cwd=REPO, capture_output=True, text=True)
     assert r.returncode == 2
     assert "error: sphere radius must be > 0, got -0.01" in r.stderr

@@ -142,8 +142,8 @@ def test_the_wave1d_case_file_holds_the_wave1d_commands_defaults():
     its fields."""
     from cases.wave1d import Wave1DSpec
     from orchestrator.casefile import spec_from_case
-    from orchestrator.cli import build_parser
-    from orchestrator.commands._options import spec_from_args
+    from cli.main import build_parser
+    from cli.commands._options import spec_from_args
     args = build_parser().parse_args(["wave1d", "--out", "x"])
     case = load(ROOT / "cases" / "wave1d.toml")
     assert spec_from_case(Wave1DSpec, case.data) == spec_from_args(Wave1DSpec, args) \

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from common.files import save_npz, write_json
-from orchestrator.cli import main
+from cli.main import main
 from orchestrator.run.outputs import write_sensors
 
 NAMES = ["under_impact", "de_zone", "bridging", "fe_node"]

@@ -155,7 +155,7 @@ def test_rigid_motion_of_spheres_and_fe_needs_no_multipliers(rotation):
 
 @pytest.mark.slow
 def test_block3d_command_writes_the_table_and_plot(tmp_path):
-    from orchestrator.cli import main
+    from cli.main import main
     out = tmp_path / "check"
     assert main(["block3d", "--ramp-steps", "20", "--hold-steps", "5", "--out", str(out)]) == 0
     assert (out / "table.md").read_text().count("| full, r = 1 |") == 2

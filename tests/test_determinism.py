@@ -18,7 +18,7 @@ def run(cache, out, before=None):
     env = dict(os.environ, DEM_FEM_CACHE=str(cache), OMP_NUM_THREADS="1")
     if before:
         subprocess.run([sys.executable, "-c", before], env=env, cwd=ROOT, check=True)
-    subprocess.run([sys.executable, "-m", "orchestrator", *COMMAND, "--out", str(out)],
+    subprocess.run([sys.executable, "-m", "cli", *COMMAND, "--out", str(out)],
                    env=env, cwd=ROOT, check=True, capture_output=True)
     with np.load(out / "damage.npz") as d:
         positions = d["positions"].copy()

@@ -20,7 +20,7 @@ from cases.generic import CaseModel
 from cases.kinds import case_inputs, load_case as load
 from common.files import save_npz, write_json
 from orchestrator.casefile import CaseError
-from orchestrator.cli import INTERRUPTED, main
+from cli.main import INTERRUPTED, main
 from orchestrator.run.folder import FAILED, MARKER, prepare_out, settle_failure
 from orchestrator.run.restart import check_inputs
 
@@ -384,7 +384,7 @@ def test_ctrl_c_finishes_the_step_checkpoints_and_exits_130(tmp_path):
                       "iterPeriod=1)]\n")
     case.write_text(case.read_text().replace("steps = 30", "steps = 60"))
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "orchestrator", "run", str(case), "--out",
+    proc = subprocess.Popen([sys.executable, "-m", "cli", "run", str(case), "--out",
                              str(out), "--quiet"], cwd=ROOT, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True,
                             env=dict(os.environ, OMP_NUM_THREADS="1"))

@@ -36,7 +36,7 @@ def test_the_coupled_slab_runs_under_mpirun_as_in_serial(tmp_path):
     results to round-off (the FE sums rows in another order)."""
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
                OMP_NUM_THREADS="1")
-    slab = [sys.executable, "-m", "orchestrator", "slab", "--model", "coupled", "--scale",
+    slab = [sys.executable, "-m", "cli", "slab", "--model", "coupled", "--scale",
             "small", "--steps", "60", "--quiet", "--out"]
     root = Path(__file__).resolve().parents[1]
     for cmd in (["mpirun", "-n", "2"] + slab + [str(tmp_path / "mpi")],

@@ -80,7 +80,7 @@ def test_mc2010_fracture_energy():
                                 "non-negative number, got -1.0"),
 ])
 def test_cli_refuses_bad_fracture_options(tmp_path, args, message):
-    r = subprocess.run([sys.executable, "-m", "orchestrator", "calibrate", *args,
+    r = subprocess.run([sys.executable, "-m", "cli", "calibrate", *args,
                         "--out", str(tmp_path / "c")], cwd=REPO, capture_output=True, text=True)
     assert r.returncode == 2
     assert message in r.stderr

@@ -9,7 +9,7 @@ from dolfinx import fem
 
 from cases.slab import SlabModel, SlabSpec
 from cases.slab.geometry import GROWTH, fe_axes, slab_grid
-from cases.slab.spec import SLAB
+from cases.slab.scales import SLAB
 
 
 @pytest.fixture(scope="module")

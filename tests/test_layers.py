@@ -1,36 +1,25 @@
-"""The packages depend one way, downwards: CLI → cases → builder / run loop → coupling core
-and partners → the file writer. Read from the source: every `import` and `from ... import`
-of every module of the project, top level or inside a function."""
+"""The top folders are the layers, and they depend one way, downwards: cli → bench → cases →
+orchestrator → partners (yade_side, fenicsx_side) → common. Read from the source: every
+`import` and `from ... import` of every module of the project, top level or inside a
+function. Inside the orchestrator the coupling core sees neither the run loop nor a partner,
+and the two partners never see each other."""
 import ast
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-# layers, top first; a module belongs to the first layer one of whose prefixes it starts with
-LAYERS = [
-    ("cli", ("orchestrator.cli", "orchestrator.commands", "orchestrator.batch",
-             "orchestrator.attach", "orchestrator.render", "orchestrator.paraview_render",
-             "orchestrator.slurm", "orchestrator.__main__", "orchestrator.env", "bench")),
-    ("cases", ("cases",)),
-    ("run", ("orchestrator.builder", "orchestrator.stepper", "orchestrator.contracts",
-             "orchestrator.run", "orchestrator.casefile", "orchestrator.ensemble",
-             "orchestrator.ensemble_plots", "orchestrator.verdicts")),
-    ("core and partners", ("orchestrator.coupling", "yade_side", "fenicsx_side")),
-    ("writer", ("common",)),
-]
-# within the lowest layers, these see nothing of each other
-ISOLATED = ("orchestrator.coupling", "yade_side", "fenicsx_side")
-PACKAGES = ("orchestrator", "cases", "yade_side", "fenicsx_side", "common", "bench")
+# top first; a package's layer is its index (partners share one)
+LAYERS = [("cli",), ("bench",), ("cases",), ("orchestrator",), ("yade_side", "fenicsx_side"),
+          ("common",)]
+PACKAGES = tuple(p for layer in LAYERS for p in layer)
+# module prefix → the project modules it may import besides its own prefix and `common`
+CONFINED = {"orchestrator.coupling": (), "yade_side": (), "fenicsx_side": ()}
 
 
 def layer(module):
-    if module == "orchestrator":      # the package itself: a docstring
-        return len(LAYERS) - 1
-    for depth, (_, prefixes) in enumerate(LAYERS):
-        if any(module == p or module.startswith(p + ".") for p in prefixes):
-            return depth
-    return None
+    top = module.split(".")[0]
+    return next(depth for depth, names in enumerate(LAYERS) if top in names)
 
 
 def module_name(path):
@@ -64,27 +53,107 @@ def sources():
     return sorted(p for pkg in PACKAGES for p in (ROOT / pkg).rglob("*.py"))
 
 
-def test_every_module_has_a_layer():
-    assert [module_name(p) for p in sources() if layer(module_name(p)) is None] == []
+MODULES = {module_name(p): p for p in sources()}
 
 
-def test_no_module_imports_a_module_above_it_or_a_sibling_partner():
+def resolved_imports(path):
+    """(line, module) for each import in the file at `path`, the name resolved to a module of
+    the project: `from a import b` is module a.b when there is one, else a."""
+    here = module_name(path)
+    package = here if path.name == "__init__.py" else here.rpartition(".")[0]
+    seen = set()
+    for line, name in project_imports(path.read_text(), package):
+        while name not in MODULES:
+            name = name.rpartition(".")[0]
+        if (line, name) not in seen:
+            seen.add((line, name))
+            yield line, name
+
+
+def _within(module, prefix):
+    return module == prefix or module.startswith(prefix + ".")
+
+
+def test_every_top_folder_of_python_code_is_a_layer():
+    tops = {p.parent.name for p in ROOT.glob("*/__init__.py")}
+    assert tops == set(PACKAGES)
+
+
+def test_no_package_imports_a_package_above_it():
+    wrong = [f"{path.relative_to(ROOT)}:{line} imports {name}"
+             for path in sources() for line, name in resolved_imports(path)
+             if layer(name) < layer(module_name(path))]
+    assert wrong == []
+
+
+def test_the_coupling_core_and_the_partners_see_nothing_of_the_project_but_the_writer():
     wrong = []
     for path in sources():
         here = module_name(path)
-        mine = layer(here)
-        if mine is None:              # reported by test_every_module_has_a_layer
+        own = next((p for p in CONFINED if _within(here, p)), None)
+        if own is None:
             continue
-        own = next((p for p in ISOLATED if here == p or here.startswith(p + ".")), None)
-        package = here if path.name == "__init__.py" else here.rpartition(".")[0]
-        for line, name in project_imports(path.read_text(), package):
-            theirs = layer(name)
-            if theirs is None:        # a name imported from a module (from a import b)
-                continue
-            other = next((p for p in ISOLATED if name == p or name.startswith(p + ".")), None)
-            if theirs < mine or (own and other and other != own):
+        for line, name in resolved_imports(path):
+            if not (_within(name, own) or _within(name, "common")):
                 wrong.append(f"{path.relative_to(ROOT)}:{line} imports {name}")
     assert wrong == []
+
+
+def circles(edges):
+    """The strongly connected groups of more than one node of the graph `edges`
+    (node → set of nodes), each sorted, found by Tarjan's algorithm."""
+    index, low, stack, on, found = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(edges.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while not group or group[-1] != v:
+                group.append(stack.pop())
+                on.discard(group[-1])
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for v in sorted(edges):
+        if v not in index:
+            visit(v)
+    return sorted(found)
+
+
+def package_graphs():
+    """For each package, its members (modules and subpackages, by name) → the members they
+    import, through any module inside them. A package's own __init__ is not a member: importing
+    a.b runs a/__init__ first in any order."""
+    graphs = {}
+    for path in sources():
+        here = module_name(path)
+        for _, name in resolved_imports(path):
+            for package in {m for m in MODULES if MODULES[m].name == "__init__.py"}:
+                if not (here.startswith(package + ".") and name.startswith(package + ".")):
+                    continue
+                a = here[len(package) + 1:].split(".")[0]
+                b = name[len(package) + 1:].split(".")[0]
+                if a != b:
+                    graphs.setdefault(package, {}).setdefault(a, set()).add(b)
+    return graphs
+
+
+def test_the_modules_of_a_package_import_each_other_in_no_circle():
+    found = {package: c for package, g in sorted(package_graphs().items()) if (c := circles(g))}
+    assert found == {}
+
+
+def test_circles_finds_a_cycle_and_only_it():
+    assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert circles({"a": {"b"}, "b": set()}) == []
 
 
 @pytest.mark.parametrize("source, expected", [

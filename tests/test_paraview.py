@@ -11,8 +11,8 @@ import meshio
 import numpy as np
 import pytest
 
-from orchestrator.cli import main
-from orchestrator.render import cut_point, pvpython_command
+from cli.main import main
+from cli.render import cut_point, pvpython_command
 from yade_side.output import read_series
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -26,7 +26,7 @@ def coupled_run(tmp_path_factory):
     """block_impact over 86 steps, a frame every 17 and the last: 1,717 spheres and 1,248 FE
     nodes, the FE reached by the impact's wave in the last frames."""
     out = tmp_path_factory.mktemp("pv") / "run"
-    subprocess.run([sys.executable, "-m", "orchestrator", "run", "cases/block_impact.toml",
+    subprocess.run([sys.executable, "-m", "cli", "run", "cases/block_impact.toml",
                     "--set", "time.duration=2e-4", "--set", "output.every=17", "--out",
                     str(out), "--quiet"], cwd=ROOT, check=True, capture_output=True,
                    env={**os.environ, "OMP_NUM_THREADS": "1"})

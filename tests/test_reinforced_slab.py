@@ -253,8 +253,8 @@ def test_bad_layers_in_a_case_file_are_refused_by_the_cli(tmp_path, capsys, laye
 def test_reinforced_is_a_slab_option(tmp_path, capsys):
     """`slab --reinforced` sets the field; the option refuses a value."""
     import argparse
-    from orchestrator.commands import slab as command
-    from orchestrator.commands._options import spec_from_args
+    from cli.commands import slab as command
+    from cli.commands._options import spec_from_args
     p = argparse.ArgumentParser()
     command.configure(p)
     args = p.parse_args(["--model", "full", "--out", str(tmp_path / "o"), "--reinforced"])

@@ -16,7 +16,7 @@ import meshio
 import numpy as np
 import pytest
 
-from orchestrator.cli import STOPPED, main
+from cli.main import STOPPED, main
 from orchestrator.run.outputs import read_sensors
 from yade_side.output import read_series
 
@@ -28,7 +28,7 @@ SETTINGS = ["--set", "time.duration=2.4e-4", "--set", "output.every=20",
 
 def start(out):
     env = dict(os.environ, OMP_NUM_THREADS="1")
-    return subprocess.Popen([sys.executable, "-m", "orchestrator", "run", str(CASE), "--out",
+    return subprocess.Popen([sys.executable, "-m", "cli", "run", str(CASE), "--out",
                              str(out), *SETTINGS], cwd=ROOT, env=env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 

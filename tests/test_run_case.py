@@ -1,4 +1,4 @@
-"""`python3 -m orchestrator run CASE.toml` on the shipped user-script case: the results folder
+"""`python3 -m cli run CASE.toml` on the shipped user-script case: the results folder
 reads back, the coupling step inserted in YADE's engine list is exact, and the checks that
 need both models stop a bad case before its first step."""
 import json
@@ -14,7 +14,7 @@ from cases.generic import CaseModel
 from cases.kinds import load_case as load
 from cases.slab import SlabSpec
 from orchestrator.casefile import CaseError
-from orchestrator.cli import main
+from cli.main import main
 from yade_side.output import read_series
 
 ROOT = Path(__file__).resolve().parents[1]

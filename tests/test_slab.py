@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from cases import slab
-from orchestrator.cli import main
+from cli.main import main
 
 STEPS = 150  # contact starts after step ~30 at small scale (dt = 0.15 x PWave)
 

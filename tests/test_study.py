@@ -13,7 +13,7 @@ from cases.slab import study_table as st
 from cases.slab.probes import add_probes, probe_name
 from cases.slab.study_runs import execute, missing_probes, probes_needed
 from common.files import save_npz, write_json
-from orchestrator.cli import main
+from cli.main import main
 from orchestrator.run.folder import MARKER
 from orchestrator.run.outputs import write_sensors
 
@@ -384,7 +384,7 @@ def test_a_full_run_with_probes_records_what_a_full_run_of_that_zone_records(tmp
     """The full model's physics does not depend on the coupled zone: the probes of a wider
     strip with one layer equal, bit for bit, the sensors of a full run described with it."""
     from cases.slab.geometry import slab_grid
-    from cases.slab.model import run
+    from cases.slab.runs import run
     from cases.slab.probes import run_full
     from orchestrator.run.outputs import read_sensors
     from yade_side import import_yade

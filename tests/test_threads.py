@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orchestrator.cli import build_parser
+from cli.main import build_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -35,8 +35,8 @@ def test_a_run_takes_every_core_unless_told():
 ])
 def test_an_ensemble_member_is_the_same_seed_run_alone(options):
     from cases.slab import SlabSpec
-    from orchestrator.commands._options import spec_from_args
-    from orchestrator.commands.slab import _spec_argv
+    from cli.commands._options import spec_from_args
+    from cli.commands.slab import _spec_argv
     parser = build_parser()
     ensemble = parser.parse_args(["slab", "--model", "full", *options, "--seeds", "4,7",
                                   "--out", "x"])
@@ -48,7 +48,7 @@ def test_an_ensemble_member_is_the_same_seed_run_alone(options):
 
 
 def test_side_by_side_batch_runs_take_one_thread_each(tmp_path, monkeypatch):
-    from orchestrator import batch
+    from cli import batch
     seen = []
     monkeypatch.setattr(batch, "run_job", lambda job, out, env: seen.append(job.threads) or {
         "name": job.name, "case": str(job.case), "status": "ok", "error": "", "batch_wall_s": 0})
@@ -64,7 +64,7 @@ def test_side_by_side_batch_runs_take_one_thread_each(tmp_path, monkeypatch):
 def test_ensemble_members_are_bit_identical_to_single_runs(tmp_path):
     env = dict(os.environ, DEM_FEM_CACHE=str(tmp_path / "cache"))
     common = ["slab", "--model", "coupled", "--steps", "40", "--output-every", "40", "--quiet"]
-    run = lambda *a: subprocess.run([sys.executable, "-m", "orchestrator", *common, *a],
+    run = lambda *a: subprocess.run([sys.executable, "-m", "cli", *common, *a],
                                     env=env, cwd=ROOT, check=True, capture_output=True)
     run("--seeds", "1,2", "--out", str(tmp_path / "ens"))
     run("--seed", "2", "--threads", "1", "--out", str(tmp_path / "alone"))

@@ -6,9 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from cases.slab.variants import DAMAGED_OMEGA, link_record, measure_folders
+from cases.slab.links import DAMAGED_OMEGA, link_record
+from cases.slab.variants import measure_folders
 from common.files import save_npz, write_json
-from orchestrator.cli import main
+from cli.main import main
 from orchestrator.run.outputs import write_sensors
 
 R = 0.01

@@ -218,7 +218,7 @@ def test_bad_parameters_are_named(kw, match):
 
 
 def test_cli_writes_the_summary(tmp_path):
-    from orchestrator.cli import main
+    from cli.main import main
     out = tmp_path / "w"
     argv = ["wave1d", "--variant", "diagonal", "--relaxation", "2", "--layers", "1",
             "--ratio", "3", "--out", str(out)]

@@ -3,7 +3,7 @@ x < x_i + w, a dolfinx FE block on x > x_i, and a bridging band of `layers` FE e
 layers (width w) between them, where both models exist (orchestrator.coupling.bridging.HalfSpaceZone).
 
 Used by the exact coupled tests (free vibration, rigid motions) and by the paper's 3D check
-(`python3 -m orchestrator block3d`): the block is slowly sheared in the y–z plane by an affine
+(`python3 -m cli block3d`): the block is slowly sheared in the y–z plane by an affine
 displacement u = f(t) B x imposed on its four faces y, z = const, whose exact answer is known
 (below, `shear_gradient`).
 

@@ -86,7 +86,7 @@ def steps(time, dt, problems, notes):
     """The run's number of steps from time.steps or time.duration; None if refused."""
     if "steps" in time:
         return time["steps"]
-    if "duration" not in time:          # de.current (orchestrator.attach): YADE's loop decides
+    if "duration" not in time:          # de.current (cli.attach): YADE's loop decides
         return None
     duration = time["duration"]
     n = duration / dt

@@ -53,7 +53,7 @@ class PackingScene:
 
 class UserScriptScene:
     """A user's YADE script, run unchanged (or, with de.current, the scene a script running
-    under YADE's own launcher has built: orchestrator.attach); its free spheres are the
+    under YADE's own launcher has built: cli.attach); its free spheres are the
     model's. Clumps, other shapes and fixed bodies cannot be coupled and are refused in the
     bridging domain."""
 

@@ -55,7 +55,7 @@ def check(d, folder, problems):
     if de["current"]:
         if "script" in de or de["packing"]:
             problems.append("de.current = true: the YADE scene already built is the DE part "
-                            "(orchestrator.attach); give no de.script or [[de.packing]] with it")
+                            "(cli.attach); give no de.script or [[de.packing]] with it")
     elif ("script" in de) == bool(de["packing"]):
         problems.append("de: give either de.script (a YADE script) or [[de.packing]] boxes, "
                         f"not {'both' if 'script' in de else 'neither'}")

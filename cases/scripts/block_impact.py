@@ -1,6 +1,6 @@
 # A block of CPM concrete spheres hit by a concrete sphere, written as a YADE user writes it:
 # it runs alone with `yade block_impact.py`, and unchanged through
-# `python3 -m orchestrator run cases/block_impact.toml`, which couples the block to an FE plate
+# `python3 -m cli run cases/block_impact.toml`, which couples the block to an FE plate
 # around it (the block is the plate's DE zone plus its bridging band).
 from yade import pack
 

@@ -2,5 +2,7 @@
 and coupled, built by orchestrator.builder), comparison, and the bending measurement of the FE
 modulus (`python3 -m cases.slab.bending`)."""
 from cases.slab.geometry import make_packings, sensor_points, slab_bridging, slab_grid
-from cases.slab.model import MODELS, SlabModel, concrete, fe_model, fe_weight, run
-from cases.slab.spec import SCALES, SLAB, SlabSpec
+from cases.slab.model import MODELS, SlabModel, concrete, fe_model, fe_weight
+from cases.slab.runs import run
+from cases.slab.scales import SCALES, SLAB
+from cases.slab.spec import SlabSpec

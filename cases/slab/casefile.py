@@ -2,7 +2,8 @@
 SlabSpec's metadata), plus slab.model and the bars' [[reinforcement]] layers
 (cases.reinforcement.Layer's keys; given, the slab is reinforced with them)."""
 from cases.reinforcement import DIRECTIONS, FACES
-from cases.slab.model import MODELS, run as run_model
+from cases.slab.model import MODELS
+from cases.slab.runs import run as run_model
 from cases.slab.reinforced import checked_layers
 from cases.slab.spec import SlabSpec
 from orchestrator.casefile import (CASE, REQUIRED, Key, choice, number, positive, spec_from_case,

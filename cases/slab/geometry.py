@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cases.slab.spec import SLAB
+from cases.slab.scales import SLAB
 from orchestrator.coupling.bridging import BoxZone, Bridging
 from orchestrator.coupling.cells import CellGrid
 

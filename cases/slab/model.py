@@ -15,7 +15,7 @@ import numpy as np
 from cases.slab.geometry import (fe_axes, make_packings, sensor_points, slab_bridging,
                                  slab_grid)
 from cases.slab.reinforced import YIELD_EVERY
-from cases.slab.spec import SLAB
+from cases.slab.scales import SLAB
 from orchestrator.builder import CouplingSpec, Description, Model, assemble
 
 MODELS = ("full", "coupled")
@@ -221,17 +221,10 @@ class SlabModel(Model):
 
 
 def run(spec, model, out, quiet=False, resume=False, start=None, inputs=None):
-    """Run one model to spec.steps and write its results folder `out`, or carry on from its
-    checkpoint (resume). `start()`, if given, makes the folder once the model is built (and
-    returns it); `inputs`: what the results depend on (orchestrator.run.inputs), a resumed
-    run must have the same. A coupled model with zone "auto" finds its zone
-    (cases.slab.zone)."""
-    if spec.zone == "auto" and model == "coupled":
-        if resume:
-            raise ValueError("--resume: an auto-zone run restarts its attempts from t = 0; "
-                             "run it again instead")
-        from cases.slab.zone import run_auto
-        return run_auto(spec, start() if start is not None else out, quiet)
+    """Run one model of `spec` with its box zone to spec.steps and write its results folder
+    `out`, or carry on from its checkpoint (resume). `start()`, if given, makes the folder once
+    the model is built (and returns it); `inputs`: what the results depend on
+    (orchestrator.run.inputs), a resumed run must have the same."""
     m = SlabModel(spec, model)
     if start is not None:
         out = start()
@@ -272,7 +265,7 @@ def _post_run_checks(m, damage, fe_peak, info, bars=None):
         warnings += m.yield_watch.warnings()
         bars.update(m.yield_watch.figures())
     if m.fe is None:
-        from cases.slab.variants import link_record
+        from cases.slab.links import link_record
         pairs, omega = m.damage.link_omega()
         slab_links = (pairs >= 0).all(axis=1)       # links between two slab spheres
         pairs, omega = pairs[slab_links], omega[slab_links]

@@ -50,7 +50,7 @@ def checked_layers(tables, reinforced, where="reinforcement"):
     if not given and reinforced:
         given = list(DEFAULT_MESH)
     if given:
-        from cases.slab.spec import SLAB
+        from cases.slab.scales import SLAB
         bar_layout(given, (0.0, 0.0, 0.0), SLAB, where)
         other = [k for k, layer in enumerate(given)
                  if layer.bond_strength != given[0].bond_strength]
@@ -76,7 +76,7 @@ def model_bars(spec, model, bridging):
     """(DE bars, FE bars) of `model`: the full model's are all DE, the coupled model's cut at
     its DE zone (either may be None)."""
     from cases.bar_split import split_at_zone
-    from cases.slab.spec import SLAB
+    from cases.slab.scales import SLAB
     bars = bar_layout(spec.reinforcement, (0.0, 0.0, 0.0), SLAB)
     return (bars, None) if model == "full" else split_at_zone(bars, bridging)
 

@@ -34,7 +34,8 @@ from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
-from cases.slab.spec import SLAB, SlabSpec
+from cases.slab.scales import SLAB
+from cases.slab.spec import SlabSpec
 
 VELOCITIES = (10.0, 20.0, 40.0)          # m/s, the study's
 DEFAULT_VELOCITIES = (10.0, 40.0)        # the default plan's: the budget

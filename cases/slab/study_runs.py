@@ -100,7 +100,7 @@ def run_one(r, folder, layouts, quiet, log=print):
     """One planned run into `folder`: carried on from the checkpoint an interrupted study left
     there (a fixed zone or a full run with the same probes), else from the start (an
     unfinished study folder there is replaced)."""
-    from cases.slab.model import run
+    from cases.slab.runs import run
     from cases.slab.probes import run_full
     from orchestrator.run.folder import forget, prepare_out, resume_folder
     from orchestrator.run.restart import read_meta

@@ -1,4 +1,4 @@
-"""The slab variants' measurement (`python3 -m orchestrator variants DIR ...`): for full runs,
+"""The slab variants' measurement (`python3 -m cli variants DIR ...`): for full runs,
 how far the impact goes and how much of the damage lies outside the DE zone a coupled model of
 the same slab would have, i.e. whether damage localizes enough for a coupled model to pay.
 
@@ -9,26 +9,7 @@ run's DE zone (`in_de_zone` of damage.npz), and, of the links damaged beyond DAM
 `links_outside_de_zone`, which the full run records at its end)."""
 import numpy as np
 
-DAMAGED_OMEGA = 0.1    # a link "partly damaged" beyond this CPM damage ω
-
-
-def link_record(omega, outside, level=DAMAGED_OMEGA):
-    """What a full run records of its links (summary.json `links_outside_de_zone`): omega the
-    CPM damage of every initial link (a broken one counting as 1), outside whether its
-    midpoint lies outside the DE zone."""
-    omega, outside = np.asarray(omega, float), np.asarray(outside, bool)
-    if omega.shape != outside.shape or omega.ndim != 1:
-        raise ValueError(f"links: {omega.size} damages for {outside.size} positions")
-    damaged, broken = omega > level, omega >= 1.0
-    count = lambda mask: int(np.count_nonzero(mask))
-    return {"level_omega": level, "links": count(outside), "links_total": omega.size,
-            "damaged": count(damaged & outside), "damaged_total": count(damaged),
-            "broken": count(broken & outside), "broken_total": count(broken),
-            "damaged_share_outside": _share(count(damaged & outside), count(damaged))}
-
-
-def _share(part, whole):
-    return None if whole == 0 else part / whole
+from cases.slab.links import DAMAGED_OMEGA, share
 
 
 def measure(run):
@@ -55,7 +36,7 @@ def measure(run):
                                        if len(z) > 1 else None),
         "damaged_volume_m3": float(damaged.sum()),
         "damaged_volume_outside_m3": float(outside),
-        "damaged_volume_share_outside": _share(float(outside), float(damaged.sum())),
+        "damaged_volume_share_outside": share(float(outside), float(damaged.sum())),
         "links_outside_de_zone": links,
         "damaged_links_share_outside": None if links is None else links["damaged_share_outside"],
     }

@@ -1,5 +1,5 @@
 """`wave1d-study`: the sweep of the paper's Figs. 4–7 and the check of the automatic r."""
-from orchestrator.commands._options import add_out, add_weighting
+from cli.commands._options import add_out, add_weighting
 
 NAME = "wave1d-study"
 HELP = ("1D spurious-reflection sweep: 4 variants x n_b 1-6 x r 1-100 at ratio 5, and the "

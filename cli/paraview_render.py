@@ -1,5 +1,5 @@
 """Pictures of a run's folder drawn by ParaView: run by `render` as
-`xvfb-run -a pvpython orchestrator/paraview_render.py JOB.json` (this ParaView build needs an
+`xvfb-run -a pvpython cli/paraview_render.py JOB.json` (this ParaView build needs an
 X display even offscreen). Uses only ParaView's own modules, not the project's.
 
 JOB.json: {"run": folder, "out": folder, "times": [s, ...] or null (a third, two thirds and

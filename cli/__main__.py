@@ -5,6 +5,6 @@ import os
 # thread count that follows the machine would change the last bits of results between machines
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from orchestrator.cli import main  # noqa: E402  (after the setting, before numpy loads)
+from cli.main import main  # noqa: E402  (after the setting, before numpy loads)
 
 raise SystemExit(main())

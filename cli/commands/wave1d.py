@@ -1,6 +1,6 @@
 """`wave1d`: one run of the 1D spurious-reflection model (paper §4) against its reference.
 Its options are the fields of cases.wave1d.Wave1DSpec, which holds the defaults."""
-from orchestrator.commands._options import add_out, add_spec_options, spec_from_args
+from cli.commands._options import add_out, add_spec_options, spec_from_args
 
 NAME = "wave1d"
 HELP = "1D spurious reflection at the DE/FE interface (paper §4): one variant vs full Lagrange"

@@ -1,5 +1,5 @@
 """`render`: 3D pictures of a run's folder drawn by ParaView, offscreen (PNG)."""
-from orchestrator.commands._options import add_out
+from cli.commands._options import add_out
 
 NAME = "render"
 HELP = ("render RUN_DIR [--times T ...] [--animate] [--out DIR]: ParaView pictures of a run, "
@@ -18,7 +18,7 @@ def configure(p):
 
 def run(args):
     from pathlib import Path
-    from orchestrator.render import render
+    from cli.render import render
     out = Path(args.out) if args.out else Path(args.run_dir) / "render"
     for path, times in render(args.run_dir, out, args.times, args.animate, args.force):
         shown = f"t = {times[0]:.4e} s" if len(times) == 1 else f"{len(times)} frames"

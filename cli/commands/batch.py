@@ -1,6 +1,6 @@
 """`batch`: many case files, or one case with a parameter table, N runs at a time
 (the Docker image's entrypoint), or a Slurm job array of them."""
-from orchestrator.commands._options import add_out, count
+from cli.commands._options import add_out, count
 
 NAME = "batch"
 HELP = ("batch CASE.toml [CASE.toml ...] [--table PARAMS] -j N --out DIR: runs and a summary "
@@ -22,7 +22,7 @@ def configure(p):
 
 
 def run(args):
-    from orchestrator.batch import plan, run_batch
+    from cli.batch import plan, run_batch
     from orchestrator.run.folder import prepare_out
     if args.slurm and args.jobs is not None:
         raise ValueError("--slurm runs each run as its own array task: -j (runs at a time on "
@@ -32,14 +32,14 @@ def run(args):
                          "--slurm, -j or --force with it")
     jobs = plan(args.cases, args.table)      # every input checked before the folder is made
     if args.task is not None:
-        from orchestrator.slurm import run_task
+        from cli.slurm import run_task
         row = run_task(jobs, args.out, args.task)
         print(f"batch task {args.task} ({row['name']}): {row['status']} {row['error']}".rstrip())
         return 0 if row["status"] == "ok" else 1
     inputs = [*args.cases, *([args.table] if args.table else [])]
     out = prepare_out(args.out, args.force, inputs)
     if args.slurm:
-        from orchestrator.slurm import write_script
+        from cli.slurm import write_script
         script = write_script(jobs, args.cases, args.table, out)
         print(f"batch: {len(jobs)} array tasks in {script}; submit with: sbatch {script}")
         return 0

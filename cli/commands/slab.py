@@ -1,6 +1,6 @@
 """`slab`: the paper's slab impact, full YADE or coupled YADE/FEniCSx. Every option but the
 model, threads and folders is a field of cases.slab.SlabSpec, which holds the defaults."""
-from orchestrator.commands._options import (add_out, add_spec_options, add_threads, count,
+from cli.commands._options import (add_out, add_spec_options, add_threads, count,
                                             list_of, option, spec_from_args)
 
 NAME = "slab"
@@ -111,7 +111,7 @@ def _ensemble(model, args):
     quiet = args.quiet or jobs > 1          # one progress bar per terminal
 
     def member(seed):
-        cmd = [sys.executable, "-m", "orchestrator", "slab", "--model", model,
+        cmd = [sys.executable, "-m", "cli", "slab", "--model", model,
                *_spec_argv(args, seed), "--out", str(top / f"seed-{seed}"),
                "--threads", str(args.threads or 1)] + (["--quiet"] if quiet else [])
         return subprocess.run(cmd).returncode
@@ -144,7 +144,7 @@ def _why_no_result(folder, code):
 def _spec_argv(args, seed):
     """The slab options of this command line, with packing `seed` instead of --seeds."""
     from cases.slab import SlabSpec
-    from orchestrator.commands._options import keyed_fields
+    from cli.commands._options import keyed_fields
     argv = ["--seed", str(seed)]
     for f in keyed_fields(SlabSpec):
         value, flag = getattr(args, f.name), option(f.name)

@@ -1,5 +1,5 @@
 """`run`: a coupled case described in a TOML case file (docs/case-files.md)."""
-from orchestrator.commands._options import add_out, add_threads
+from cli.commands._options import add_out, add_threads
 
 NAME = "run"
 HELP = "run CASE.toml [--set key=value ...] [--out DIR]: a case described in a case file"

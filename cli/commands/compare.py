@@ -1,6 +1,6 @@
 """`compare`: coupled slab runs against full-YADE runs of the same slab: one of each, or
 ensembles over packing seeds (folders made by `slab --seeds`, or several run folders)."""
-from orchestrator.commands._options import add_out
+from cli.commands._options import add_out
 
 NAME = "compare"
 HELP = ("compare FULL COUPLED: sensor histories, damage maps, speed-up; FULL and COUPLED may be "

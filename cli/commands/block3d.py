@@ -1,5 +1,5 @@
 """`block3d`: the paper's 3D check, a coupled elastic block sheared slowly into a known field."""
-from orchestrator.commands._options import add_out, add_weighting
+from cli.commands._options import add_out, add_weighting
 
 NAME = "block3d"
 HELP = ("3D check (paper §2): coupled YADE/FE block under a slow simple shear; error of the "

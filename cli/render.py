@@ -1,5 +1,5 @@
 """Pictures of a run's folder with ParaView: finds pvpython, checks the folder, and runs
-orchestrator/paraview_render.py under `xvfb-run -a pvpython` (this ParaView build needs an X
+cli/paraview_render.py under `xvfb-run -a pvpython` (this ParaView build needs an X
 display even to render offscreen; a virtual one is started per call). `xvfb-run -a` takes the
 first free display number from its start, which races with other users' X servers starting at
 the same moment: the search starts at a number of this process's own, and a run whose display

@@ -4,7 +4,7 @@ says pays, and the table, plots and docs page written from the run folders. Runs
 finished with the same description are reused, so the study resumes where it stopped."""
 import argparse
 
-from orchestrator.commands._options import add_threads, list_of
+from cli.commands._options import add_threads, list_of
 
 NAME = "study"
 HELP = ("where coupling pays: the coupled slab's error against the full scatter and its "
@@ -85,7 +85,7 @@ def run(args):
                      "runs": [{"folder": r.folder, "seed": r.seed, "steps": r.spec().steps,
                                "status": outcomes[r.folder].status} for r in runs]}
     images = _plots(table, out, Path(args.doc).parent if args.doc else None)
-    command = ("python3 -m orchestrator study"
+    command = ("python3 -m cli study"
                + ("" if args.sweep == "default" else f" --sweep {args.sweep}")
                + ("" if args.velocities is None else
                   " --velocities " + ",".join(f"{v:g}" for v in args.velocities))

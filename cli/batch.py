@@ -1,5 +1,5 @@
 """Batch runs, like yade-batch: many case files, or one case file with a parameter table,
-N runs at a time. Each run is a separate `python3 -m orchestrator run` process (YADE's scene
+N runs at a time. Each run is a separate `python3 -m cli run` process (YADE's scene
 is a process-wide singleton), writing its own results folder; the batch writes
 `batch_summary.csv` (status, error, key results of every run) and `failures.txt`.
 
@@ -65,7 +65,7 @@ class Job:
     script_table: str = None     # the text of SCRIPT_TABLE, when the script has columns
 
     def command(self, out):
-        cmd = [sys.executable, "-m", "orchestrator", "run", str(self.case), "--out",
+        cmd = [sys.executable, "-m", "cli", "run", str(self.case), "--out",
                str(out / self.name), "--quiet"]
         for key, value in self.overrides.items():
             cmd += ["--set", f"{key}={value}"]

@@ -2,7 +2,7 @@
 and one call, after the script has built its bodies and engines (and stepped once, as CPM
 scripts do, to make their cohesive links):
 
-    from orchestrator.attach import attach      # the repository on PYTHONPATH
+    from cli.attach import attach      # the repository on PYTHONPATH
     model = attach("plate.toml")                # the FE part, DE zone and coupling of a case file
     O.run(2000, True)
 

@@ -10,7 +10,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from orchestrator.batch import prepare_batch, run_job, write_summary
+from cli.batch import prepare_batch, run_job, write_summary
 from common.files import write_text
 
 SCRIPT = "batch.sbatch"
@@ -21,7 +21,7 @@ def write_script(jobs, cases, table, out):
     """out/batch.sbatch for these jobs (planned from `cases` and `table`); its path."""
     out = Path(out).resolve()
     prepare_batch(jobs, out)
-    task = [sys.executable, "-m", "orchestrator", "batch",
+    task = [sys.executable, "-m", "cli", "batch",
             *[str(Path(c).resolve()) for c in cases]]
     if table is not None:
         task += ["--table", str(Path(table).resolve())]

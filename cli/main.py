@@ -1,6 +1,6 @@
-"""Command-line entry point: `python3 -m orchestrator SUBCOMMAND ...`.
+"""Command-line entry point: `python3 -m cli SUBCOMMAND ...`.
 
-Each module of `orchestrator.commands` is one subcommand: it defines `NAME`, `HELP`,
+Each module of `cli.commands` is one subcommand: it defines `NAME`, `HELP`,
 `configure(parser)` and `run(args) -> int`. Modules import the solvers inside `run`
 only, so that `--help` stays fast.
 """
@@ -9,7 +9,7 @@ import sys
 import importlib
 import pkgutil
 
-from orchestrator import commands
+from cli import commands
 
 
 def _command_modules():
@@ -27,7 +27,7 @@ class Parser(argparse.ArgumentParser):
 
 def build_parser():
     parser = Parser(
-        prog="python3 -m orchestrator",
+        prog="python3 -m cli",
         description="Coupled YADE (DE) / FEniCSx (FE) solver for impacts on concrete.")
     sub = parser.add_subparsers(dest="command", metavar="SUBCOMMAND", required=True)
     for mod in _command_modules():

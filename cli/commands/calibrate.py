@@ -2,7 +2,7 @@
 separation for the fracture energy; fit of the CPM micro-parameters to target E, fc, Gf
 (and ν)."""
 from cases.slab import SCALES
-from orchestrator.commands._options import add_out, add_threads
+from cli.commands._options import add_out, add_threads
 
 NAME = "calibrate"
 HELP = ("uniaxial tests of a CPM packing (E, ν, fc, ft, Gf); fit CPM micro-parameters to "
@@ -56,7 +56,7 @@ def configure(p):
 def run(args):
     from dataclasses import asdict, replace
     from orchestrator.run.folder import prepare_out
-    from yade_side import calibration as cal
+    from yade_side import calibration as cal, fit
     from yade_side.fracture import mc2010_fracture_energy
     from yade_side.material import ConcreteParams
 
@@ -73,7 +73,7 @@ def run(args):
     size = cal.check_specimen(radius, args.size)
     gf = None if args.no_gf else (args.gf if args.gf is not None
                                   else mc2010_fracture_energy(args.fc))
-    target = cal.Target(young=args.young, compressive_strength=args.fc, poisson=args.poisson,
+    target = fit.Target(young=args.young, compressive_strength=args.fc, poisson=args.poisson,
                         density=args.density, fracture_energy=gf)
     start = {k: v for k, v in dict(young=args.cpm_young, sigmaT=args.sigma_t,
                                    epsCrackOnset=args.eps_crack_onset,
@@ -99,7 +99,7 @@ def run(args):
         result = dict(params=asdict(params), compression=c, tension=t, iterations=[],
                       converged=None)
     else:
-        result = cal.calibrate(sample, target, params, loading, tol=args.tol,
+        result = fit.calibrate(sample, target, params, loading, tol=args.tol,
                                gf_tol=args.gf_tol, max_iter=args.max_iter)
     c, t = result["compression"], result["tension"]
     macro = cal.summary(c, t)
