@@ -48,6 +48,8 @@ class RankZeroModel:
         if self.rank == 0:
             atexit.register(self.stop)  # however rank 0 ends, the others leave serve()
 
+    carries_damage = False      # fenicsx_side.damaged runs on one rank
+
     @property
     def distributed(self):
         return self.comm.size > 1

@@ -209,6 +209,16 @@ class ElasticModel:
         self._K_petsc.mult(self._u_vec, Ku)
         return self.comm.allreduce(0.5 * float(np.sum(w * self._u * Ku.array)))
 
+    # --- history, for checkpoints: none (fenicsx_side.damaged has some) ---------------------
+    carries_damage = False
+
+    def history(self):
+        """Arrays beyond u, v and t that the state needs (a name → array mapping)."""
+        return {}
+
+    def restore_history(self, history):
+        """Set what history() gave."""
+
     # --- coupling operators -----------------------------------------------------------------
     def locate(self, points):
         """Cell containing each point and the point's reference coordinates in it: (cells, X).

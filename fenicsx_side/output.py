@@ -68,7 +68,8 @@ class XdmfSeries:
         points = {"displacement": m.u.reshape(-1, 3), "velocity": m.v.reshape(-1, 3),
                   **(point_data or {})}
         cells = {"stress": stress.tensor.reshape(-1, 9), "von_mises": stress.von_mises,
-                 "max_principal": stress.max_principal, **(cell_data or {})}
+                 "max_principal": stress.max_principal,
+                 **({"damage": m.damage} if m.carries_damage else {}), **(cell_data or {})}
         fields = {name: (center, _rows(name, values, rows))
                   for center, data, rows in (("Node", points, len(m.nodes)),
                                              ("Cell", cells, len(m.cell_nodes)))
