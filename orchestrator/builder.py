@@ -233,6 +233,41 @@ class Model:
     def sphere_count(self):
         return sum(len(b) for b in self.energy_bodies)
 
+    # the spheres' volume per unit bulk volume: a broken FE cell counts as its volume × this
+    # in the spheres' damaged volume (a case sets it from its packing)
+    solid_fraction = 1.0
+
+    def damaged_volume(self, sphere_damage):
+        """The damaged volume of both models in one measure, m³ of spheres: a sphere's damage
+        d (broken / initial links) times its volume, and, where the FE carries damage, an FE
+        cell counted whole once broken as a link is (D ≥ BROKEN_OMEGA; partial damage no more
+        counts there than a partly damaged link does), each weighted by its model's share of
+        the band (bridging.share) and the cells by φ (solid_fraction). {"total", "de", "fe"}."""
+        volume = 4.0 / 3.0 * np.pi * self.spheres.radius ** 3 * self.sphere_shares()
+        de = float(np.asarray(sphere_damage) @ volume)
+        fe = float(self.fe_broken() @ self.fe_cell_volumes()) if self.fe_damages else 0.0
+        return {"total": de + fe, "de": de, "fe": fe}
+
+    def fe_broken(self):
+        """1 for the FE cells broken as a link is, else 0: their part of the damage measure."""
+        from yade_side.scene import BROKEN_OMEGA
+        return (self.fe.damage >= BROKEN_OMEGA).astype(float)
+
+    def sphere_shares(self):
+        """What each sphere's damage weighs in damaged_volume, per unit of its volume."""
+        if self.fe is None:
+            return np.ones(len(self.spheres))
+        return 1.0 - self.bridging.share(self.spheres.ref_pos)
+
+    @property
+    def fe_damages(self):
+        return self.fe is not None and self.fe.carries_damage
+
+    def fe_cell_volumes(self):
+        """What each FE cell's damage weighs in damaged_volume (m³ of spheres)."""
+        return self.fe.cell_volume * self.solid_fraction * self.bridging.share(
+            self.fe.cell_centres)
+
 
 def couple(fe, bridging, bridge, dt, spec, relaxation):
     """The coupling of the spheres `bridge` to `fe` as CouplingSpec `spec` says, with r =

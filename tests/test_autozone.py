@@ -65,6 +65,36 @@ def test_uniaxial_stretch_trips_at_the_first_check_past_ft():
     assert steps(m, 0) == {"attempt": 0}
 
 
+def test_an_fe_that_damages_trips_on_its_damage_not_its_stress():
+    """The same stretch on an FE with the damage law (ft 3 MPa, box cells of 0.2 m): D(n δ) of
+    the law's curve; with δ = 1e-4 and a check every 2 steps the first check with D ≥ 0.9 is
+    found from the law itself, and every cell is flagged; stresses past ft do not trip."""
+    from fenicsx_side.damage_law import ConcreteDamage
+    from fenicsx_side.damaged import DamageModel
+    law = ConcreteDamage(E, NU, FT, 30e6, 100.0)
+    grid = CellGrid(P0, P1, N)
+    zone = np.zeros(grid.shape, bool)
+    zone[0, 0] = True
+    m = StretchedBlock(zone, uniaxial(1e-4))
+    removed = np.repeat(zone[:, :, None], N[2], axis=2)
+    m.fe = DamageModel(box_mesh_without_cells(P0, P1, N, removed), law, RHO)
+    step = m.step
+
+    def damaging_step():
+        step()
+        m.fe.update_damage()
+    m.step = damaging_step
+    ef = law.softening_strain(0.2)
+    expected = next(n for n in range(2, 40, 2) if law.damage(n * 1e-4, ef) >= 0.9)
+    watch = Watch(m, grid, FT, TripLevels(stress_every=2))
+    with pytest.raises(Tripped) as e:
+        steps(m, 0)
+    assert e.value.step == expected
+    assert watch.peak_damage == pytest.approx(law.damage(expected * 1e-4, ef), rel=1e-9)
+    assert "FE damage" in e.value.indicator and "in 23 cells" in e.value.indicator
+    assert np.array_equal(e.value.cells, ~zone)
+
+
 def test_zone_grows_over_the_flagged_cells_and_margin_then_runs_clean():
     """u_x = ε max(x − 0.8, 0): only the cells beyond x = 0.8 (i = 4, 5) carry stress,
     σ1 = (λ + 2μ) ε. The first attempt trips there; the zone grows by those cells and one

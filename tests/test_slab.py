@@ -13,12 +13,53 @@ STEPS = 150  # contact starts after step ~30 at small scale (dt = 0.15 x PWave)
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     root = tmp_path_factory.mktemp("slab")
-    for model in ("full", "coupled"):
+    for model, extra in (("full", []), ("coupled", []),
+                         ("coupled", ["--fe-material", "damage"])):
+        folder = root / "-".join([model] + extra[1:])
         assert main(["slab", "--model", model, "--scale", "small", "--steps", str(STEPS),
-                     "--output-every", "150", "--out", str(root / model), "--quiet"]) == 0
-    assert main(["compare", str(root / "full"), str(root / "coupled"),
-                 "--out", str(root / "cmp")]) == 0
+                     "--output-every", "150", "--out", str(folder), "--quiet", *extra]) == 0
+    for coupled, cmp in (("coupled", "cmp"), ("coupled-damage", "cmp-damage")):
+        assert main(["compare", str(root / "full"), str(root / coupled),
+                     "--out", str(root / cmp)]) == 0
     return root
+
+
+def test_an_fe_that_damages_writes_its_damage_and_counts_it_in_the_damaged_volume(runs):
+    """--fe-material damage: the FE's damage in fe.xdmf and damage.npz; the damaged volume is
+    the spheres' and the FE cells' in one measure (a cell counts once broken as a link is),
+    each weighted by its share of the band."""
+    import h5py
+    summary = json.loads((runs / "coupled-damage" / "summary.json").read_text())
+    d = summary["damage"]
+    assert d["damaged_volume_m3"] == pytest.approx(d["damaged_volume_de_m3"]
+                                                   + d["damaged_volume_fe_m3"], rel=1e-12)
+    fe = summary["fe_damage"]
+    assert 0 <= fe["max"] <= 1 and fe["cells_damaged"] <= fe["cells"]
+    with np.load(runs / "coupled-damage" / "damage.npz") as z:
+        assert z["fe_damage"].max(initial=0.0) == fe["max"]
+        assert z["fe_broken"] @ z["fe_volume"] == pytest.approx(d["damaged_volume_fe_m3"],
+                                                                rel=1e-12, abs=1e-18)
+        assert np.array_equal(z["fe_broken"], z["fe_damage"] >= 0.99)
+        assert np.all((0 <= z["sphere_share"]) & (z["sphere_share"] <= 1))
+    last = sorted((runs / "coupled-damage" / "fe").glob("step*.h5"))[-1]
+    with h5py.File(last) as f:
+        assert f["damage"].shape == (fe["cells"], 1)
+    assert json.loads((runs / "coupled" / "summary.json").read_text())["fe_damage"] is None
+    assert (runs / "cmp-damage" / "comparison.json").is_file()
+
+
+def test_bad_damage_input_is_one_line(tmp_path, capsys):
+    """A fracture energy or strength that is not positive, fc below ft, or cells too wide for
+    the crack band: one line, exit 2, before anything is built."""
+    for extra, words in ((["--fracture-energy", "0"], "fracture_energy must be"),
+                         (["--fracture-energy", "-5"], "fracture_energy must be"),
+                         (["--tensile-strength", "40e6"], "must exceed tensile_strength"),
+                         (["--fracture-energy", "1"], "beyond the crack band's limit")):
+        assert main(["slab", "--model", "coupled", "--fe-material", "damage", *extra,
+                     "--out", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err
+        assert words in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x").exists()
 
 
 def test_both_models_run_and_compare_with_finite_values(runs):

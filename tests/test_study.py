@@ -271,6 +271,16 @@ def test_the_default_plan_fits_its_budget_and_the_full_sweep_is_larger():
     assert {f"zone-{z}-nb{n}" for z in ("0.9m-strip", "1.3m-strip", "0.5m-box")
             for n in (1, 2, 3)} <= sweep
     assert len({r.folder for r in full}) == len(full)
+    # the FE that cracks beside the elastic one: the small box at each impact, the default
+    # zone at 40 m/s; their sensors sit where their elastic twins' do
+    names = lambda g: {r.config.name for r in default if r.config.group == g}
+    assert {"zone-0.5m-box-nb1-damage", "zone-0.5m-box-nb1"} <= names("medium-10ms")
+    assert {"zone-0.9m-strip-nb3-damage", "zone-0.5m-box-nb1-damage",
+            "zone-0.5m-box-nb1"} <= names("medium-40ms")
+    damage = [r for r in default if r.config.fe_material == "damage"]
+    assert len(damage) == 3 and all(r.spec().fe_material == "damage" for r in damage)
+    assert all(r.config.layout == replace(r.config, fe_material="elastic").name
+               for r in damage)
 
 
 def test_the_cost_model_reproduces_the_benchmark_models():

@@ -87,22 +87,27 @@ def test_the_variants_command_prints_the_table_and_refuses_a_coupled_run(tmp_pat
 
 
 def test_the_slab_takes_the_gf_set_of_its_scale():
-    """concrete "gf": the scale's Gf set and its ft, and as many more steps as the stiffer
-    spheres shorten the critical step (∝ 1/√young), so that the run lasts as long."""
-    from cases.slab import SCALES, SlabSpec, concrete
+    """concrete "gf": the scale's Gf set and its measured material (ν, fc, ft, Gf of its
+    calibration record), and as many more steps as the stiffer spheres shorten the critical
+    step (∝ 1/√young), so that the run lasts as long."""
+    from cases.slab import SCALES, SlabSpec, concrete as params_of
+    from cases.slab.scales import concrete
     for scale in ("small", "medium"):
-        table = SCALES[scale]
+        table, gf, plain_set = SCALES[scale], concrete(scale, "gf"), concrete(scale, "plain")
         spec = SlabSpec(scale=scale, concrete="gf")
-        assert spec.cpm == table.gf_cpm and spec.tensile_strength == table.gf_tensile_strength
+        assert spec.cpm == gf.cpm
+        assert (spec.poisson, spec.compressive_strength, spec.tensile_strength,
+                spec.fracture_energy) == (gf.poisson, gf.compressive_strength,
+                                          gf.tensile_strength, gf.fracture_energy)
         duration = lambda steps, cpm: steps / math.sqrt(cpm["young"])
-        assert duration(spec.steps, table.gf_cpm) == pytest.approx(
-            duration(table.steps, table.cpm), rel=1 / table.steps)
-        params = concrete(spec)
+        assert duration(spec.steps, gf.cpm) == pytest.approx(
+            duration(table.steps, plain_set.cpm), rel=1 / table.steps)
+        params = params_of(spec)
         assert (params.relDuctility, params.equivStrainShearContrib) == (0.1, 0.1)
         plain = SlabSpec(scale=scale)
         assert (plain.cpm, plain.tensile_strength, plain.steps) == (
-            table.cpm, table.tensile_strength, table.steps)
-        assert concrete(plain).equivStrainShearContrib == 0.0
+            plain_set.cpm, plain_set.tensile_strength, table.steps)
+        assert params_of(plain).equivStrainShearContrib == 0.0
     given = SlabSpec(concrete="gf", tensile_strength=3e6, steps=10)
     assert (given.tensile_strength, given.steps) == (3e6, 10)
 

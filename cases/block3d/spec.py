@@ -112,6 +112,8 @@ class UniformOverlap:
     def beta(self, x):
         return np.full(len(np.atleast_2d(x)), 1.0 - self.weight)
 
+    share = alpha
+
     def contains(self, x, tol=0.0):
         return np.ones(len(np.atleast_2d(x)), bool)
 

@@ -7,7 +7,7 @@ mid-span, links kept undamaged (CpmPhys.neverDamage), Cundall damping until the 
 deflection settles. The same strip in FE on the scale's grid (same supports, the same point
 forces through the coupling operator k) gives the deflection of a 31 GPa continuum; the FE is
 linear, so E_eff = 31 GPa × w_FE / w_DE is the FE modulus that bends like the spheres
-(cases/slab/spec.py SCALES, docs/slab.md).
+(cases/slab/scales.py SCALES, docs/slab.md).
 """
 import argparse
 import json

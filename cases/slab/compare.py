@@ -226,13 +226,20 @@ def _ensemble(full, coupled, names, out):
 
 
 def _maps(runs, de_zone=False):
-    """{seed: (positions, final damage, volume)} (the DE zone's spheres only, for coupled)."""
+    """{seed: (positions, final damage, volume)}: for coupled runs with an elastic FE, the DE
+    zone's spheres only; where the FE carries damage, every sphere and every FE cell, measured
+    and weighted as in the damaged volume (orchestrator.builder.Model.damaged_volume)."""
     out = {}
     for s, r in runs.items():
         d = r.damage
+        volume = 4.0 / 3.0 * np.pi * d["radius"] ** 3
+        if "fe_damage" in d:
+            out[s] = (np.vstack([d["positions"], d["fe_centres"]]),
+                      np.concatenate([d["damage"][-1], d["fe_broken"]]),
+                      np.concatenate([volume * d["sphere_share"], d["fe_volume"]]))
+            continue
         keep = d["in_de_zone"] if de_zone else np.ones(len(d["radius"]), bool)
-        out[s] = (d["positions"][keep], d["damage"][-1][keep],
-                  4.0 / 3.0 * np.pi * d["radius"][keep] ** 3)
+        out[s] = (d["positions"][keep], d["damage"][-1][keep], volume[keep])
     return out
 
 

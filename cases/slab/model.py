@@ -53,7 +53,14 @@ def fe_parts(spec, grid, weight):
         removed = np.repeat(grid.cells[:, :, None], grid.n[2], axis=2)
         msh = box_mesh_without_cells((0, 0, 0), SLAB, grid.n, removed)
     supports = [(face(0, 0.0), (2,)), (face(0, SLAB[0]), (2,))]
-    model = ElasticModel(msh, spec.young, spec.poisson, spec.density, supports, weight=weight)
+    if spec.fe_material == "damage":
+        from fenicsx_side.damage_law import ConcreteDamage
+        from fenicsx_side.damaged import DamageModel
+        model = DamageModel(msh, ConcreteDamage(**spec.damage_law()), spec.density, supports,
+                            weight=weight)
+    else:
+        model = ElasticModel(msh, spec.young, spec.poisson, spec.density, supports,
+                             weight=weight)
     bars = None
     if spec.reinforced:
         if model.comm.size > 1:
@@ -166,6 +173,7 @@ class SlabModel(Model):
         self.impactor, self.impactor_ids = scene.impactor, scene.impactor_ids
         self.support_ids, self.elastic_links = scene.support_ids, scene.elastic_links
         self.radius = self.slab.radius
+        self.solid_fraction = scene.packs.slab_fraction
         self.initial_links = int(self.damage.initial.sum())
         self.energy_bodies = [self.slab, self.impactor]
         self.yield_watch = None
@@ -259,8 +267,16 @@ def _post_run_checks(m, damage, fe_peak, info, bars=None):
     passed their tensile strength (ω > 0), which an elastic FE there cannot follow; and
     info["links_outside_de_zone"]: how many links are damaged there (cases.slab.variants)."""
     from orchestrator.run.checks import post_run_checks
-    warnings = post_run_checks(fe_peak, damage[m.bridge_index], m.spec.tensile_strength,
-                               m.spec.compressive_strength)
+    from orchestrator.run.outputs import fe_damage
+    spec = m.spec
+    warnings = post_run_checks(fe_peak, damage[m.bridge_index], spec.tensile_strength,
+                               spec.compressive_strength,
+                               fe_damage(m) if m.fe_damages else None, spec.trip_damage)
+    if fe_peak is not None and not m.fe_damages and \
+            fe_peak["max_principal_Pa"] > spec.tensile_strength:
+        warnings.append(f"the elastic FE went {fe_peak['max_principal_Pa'] / spec.tensile_strength:.2f} "
+                        f"× past ft: run with --fe-material damage (fe.material = \"damage\"), "
+                        f"an FE that cracks where the concrete does (docs/fe-damage.md)")
     if m.yield_watch is not None:
         warnings += m.yield_watch.warnings()
         bars.update(m.yield_watch.figures())

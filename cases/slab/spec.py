@@ -9,8 +9,8 @@ from orchestrator.casefile import (boolean, check_spec, choice, integer, non_neg
                                    safety_range, spec_key as key, step_count)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.run.autozone import omega_level, stress_level
-from cases.slab.scales import CONCRETES, PER_SCALE, SCALES
+from orchestrator.run.autozone import damage_level, omega_level, stress_level
+from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, concrete
 
 
 @dataclass
@@ -50,6 +50,10 @@ class SlabSpec:
     trip_omega: float = key(0.1, number, omega_level, section="zone",
                             help="auto: a bridging link with damage >= this trips (the "
                                  "coupling assumes an elastic band)")
+    trip_damage: float = key(0.9, number, damage_level, section="zone",
+                             help="auto, with fe.material 'damage': an FE cell with damage >= "
+                                  "this trips instead of its stress (the concrete cracked "
+                                  "through there); also the post-run check's level")
     stress_every: int = key(10, integer, positive, section="zone",
                             help="auto: steps between FE stress checks")
     links_every: int = key(400, integer, positive, section="zone",
@@ -95,17 +99,27 @@ class SlabSpec:
                                 help="steps between checkpoints")
     young: float = key(None, number, positive, section="material",
                        help="FE modulus (Pa); default per scale (the DE slab's bending modulus)")
-    poisson: float = key(0.2, number, poisson_range, section="material", help="FE Poisson ratio")
+    poisson: float = key(None, number, poisson_range, section="material",
+                         help="FE Poisson ratio; default the concrete's measured ν")
     density: float = key(2400.0, number, positive, section="material", help="kg/m³")
     concrete: str = key("plain", choice(*CONCRETES), section="material",
                         help="the spheres' CPM set of the scale: 'plain' (fitted to E, fc) or "
                              "'gf' (also towards the fracture energy; small and medium, "
                              "docs/calibration.md)")
-    compressive_strength: float = key(31e6, number, positive, section="material",
-                                      help="fc (Pa), for the post-run FE check")
+    compressive_strength: float = key(None, number, positive, section="material",
+                                      help="fc (Pa) of the FE damage law and the post-run FE "
+                                           "check; default the concrete's measured fc")
     tensile_strength: float = key(None, number, positive, section="material",
-                                  help="ft (Pa), for the post-run FE check; default per scale "
-                                       "and concrete")
+                                  help="ft (Pa) of the FE damage law and the post-run FE "
+                                       "check; default the concrete's measured ft")
+    fracture_energy: float = key(None, number, positive, section="material",
+                                 help="Gf (J/m²) of the FE damage law; default the concrete's "
+                                      "separation test")
+    fe_material: str = key("elastic", choice("elastic", "damage"), section="fe",
+                           name="material",
+                           help="the FE part: 'elastic', as in the paper, or 'damage': the "
+                                "concrete damage law with the spheres' measured ft, fc, Gf "
+                                "(docs/fe-damage.md)")
     reinforced: bool = key(False, boolean,
                            help="bars: the case file's [[reinforcement]] layers, else a "
                                 "two-way mesh of 12 mm bars at 150 mm at both faces, 30 mm "
@@ -119,19 +133,23 @@ class SlabSpec:
         self.reinforcement = layers(self)
         self.reinforced = bool(self.reinforcement)
         table = SCALES[self.scale]
-        if self.concrete == "gf":
-            if table.gf_cpm is None:
-                have = ", ".join(name for name, t in SCALES.items() if t.gf_cpm)
-                raise ValueError(f"slab: concrete 'gf' has no calibrated set at scale "
-                                 f"{self.scale!r} (only {have})")
-            if self.tensile_strength is None:
-                self.tensile_strength = table.gf_tensile_strength
-            if self.steps is None:     # the same duration: the critical step is ∝ 1/√young
-                self.steps = math.ceil(table.steps * math.sqrt(table.gf_cpm["young"]
-                                                               / table.cpm["young"]))
+        material = concrete(self.scale, self.concrete)
+        if material is None:
+            have = ", ".join(name for name in SCALES if concrete(name, self.concrete))
+            raise ValueError(f"slab: concrete {self.concrete!r} has no calibrated set at scale "
+                             f"{self.scale!r} (only {have})")
+        for name in ("poisson", "compressive_strength", "tensile_strength", "fracture_energy"):
+            if getattr(self, name) is None:
+                setattr(self, name, getattr(material, name))
+        if self.steps is None and self.concrete != "plain":
+            # the same duration: the critical step is ∝ 1/√young
+            self.steps = math.ceil(table.steps * math.sqrt(
+                material.cpm["young"] / concrete(self.scale, "plain").cpm["young"]))
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
+        if self.fe_material == "damage":
+            self._check_damage(material)
         if self.band_ratio is not None:
             if self.zone == "auto":
                 raise ValueError("slab: band_ratio (a graded FE mesh) applies to box zones, not "
@@ -156,6 +174,31 @@ class SlabSpec:
 
     @property
     def cpm(self):
-        """The CPM micro-parameters of the scale's `concrete` (the others: ConcreteParams')."""
-        table = SCALES[self.scale]
-        return table.gf_cpm if self.concrete == "gf" else table.cpm
+        """The CPM micro-parameters of the scale's `concrete`."""
+        return concrete(self.scale, self.concrete).cpm
+
+    def damage_law(self):
+        """The FE damage law (fenicsx_side.damage_law.ConcreteDamage's fields)."""
+        return dict(young=self.young, poisson=self.poisson,
+                    tensile_strength=self.tensile_strength,
+                    compressive_strength=self.compressive_strength,
+                    fracture_energy=self.fracture_energy)
+
+    def _check_damage(self, material):
+        if self.fracture_energy is None:
+            raise ValueError(f"slab: fe.material 'damage' needs a fracture energy: the "
+                             f"{self.concrete!r} set at scale {self.scale!r} has no separation "
+                             f"test ({material.record}); give material.fracture_energy "
+                             f"(--fracture-energy)")
+        from cases.slab.geometry import slab_grid
+        from fenicsx_side.damage_law import ConcreteDamage
+        try:
+            law = ConcreteDamage(**self.damage_law())
+        except ValueError as e:
+            raise ValueError(f"slab: {e}") from None
+        grid = slab_grid(self)
+        widest = max(grid.h, SLAB[2] / grid.n[2])      # no cell is wider along any direction
+        if widest >= law.max_element_size:
+            raise ValueError(f"slab: FE cells {widest:.3g} m wide are beyond the crack band's "
+                             f"limit 2 M Gf / ft² = {law.max_element_size:.3g} m: a smaller "
+                             f"fe_ratio, or a larger fracture_energy")

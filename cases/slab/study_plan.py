@@ -87,9 +87,15 @@ class Config:
     layers: int = 3
     band_ratio: float = None    # a graded FE mesh's band cells / sphere diameter (None: uniform)
     reinforced: bool = False    # the default bar mesh (docs/reinforcement.md)
+    fe_material: str = "elastic"  # or "damage" (docs/fe-damage.md)
 
     @property
     def name(self):
+        return self.layout + ("-damage" if self.fe_material == "damage" else "")
+
+    @property
+    def layout(self):
+        """The name of its zone and band: where its sensors sit."""
         if self.model == "full":
             return "full"
         if self.zone == "auto":
@@ -135,7 +141,7 @@ def _spec(config, seed, steps):
                   reinforced=c.reinforced)
     if c.model == "coupled":
         values.update(zone=c.zone, de_zone=c.de_zone, full_width=c.full_width, layers=c.layers,
-                      band_ratio=c.band_ratio)
+                      band_ratio=c.band_ratio, fe_material=c.fe_material)
     return SlabSpec(**{k: v for k, v in values.items() if v is not None})
 
 
@@ -212,6 +218,16 @@ def _medium(sweep, scale, v, steps, seeds):
                            layers=nb)
                 if c.name != default.name:
                     runs.append(Planned(c, seeds[0], steps))
+    # the FE that cracks (docs/fe-damage.md): the small box, n_b 1, with its elastic twin where
+    # the sweep has not got it, and the default zone where the sweep's velocity is not (the
+    # budget: 10 m/s leaves the elastic FE below ft nearly everywhere)
+    box = Config(scale, v, "coupled", de_zone=SMALL_BOX, full_width=False, layers=1)
+    swept = everything or v == SWEEP_VELOCITY
+    twins = [replace(box, fe_material="damage")] + ([] if swept else [box])
+    if everything or v != SWEEP_VELOCITY:
+        twins.insert(0, replace(default, fe_material="damage"))
+    for c in twins:
+        runs += [Planned(c, s, steps) for s in (seeds if everything else seeds[:1])]
     runs.append(Planned(auto, seeds[0], steps))
     when = None if everything else f"{auto.folder}/seed-{seeds[0]}"
     runs += [Planned(auto, s, steps, when) for s in seeds[1:]]

@@ -30,7 +30,7 @@ def layout_label(run):
     c = run.config
     if c.same_layout_as_full():
         return None
-    return f"{c.name}-seed-{run.seed}" if c.zone == "auto" else c.name
+    return f"{c.layout}-seed-{run.seed}" if c.zone == "auto" else c.layout
 
 
 def groups(runs):
@@ -81,6 +81,7 @@ def config_row(c, members, full, full_cfg, found, timing):
     """The figures of one coupled configuration (members: {seed: (planned, folder, summary)})."""
     done = {seed: (r, f, s) for seed, (r, f, s) in members.items() if s is not None}
     row = {"config": c.name, "model": "coupled", "zone": c.zone, "layers": c.layers,
+           "fe_material": c.fe_material,
            "de_zone_m": None if c.zone == "auto" else c.defaults().de_zone,
            "full_width": None if c.zone == "auto" else c.defaults().full_width,
            "band_ratio": c.band_ratio,
@@ -317,7 +318,7 @@ def choose(table):
     _, impact, row = best
     return Config("paper", impact["velocity"], "coupled", zone=row["zone"],
                   de_zone=row["de_zone_m"], full_width=row["full_width"], layers=row["layers"],
-                  band_ratio=row.get("band_ratio"))
+                  band_ratio=row.get("band_ratio"), fe_material=row.get("fe_material", "elastic"))
 
 
 def _mean(values):

@@ -53,8 +53,8 @@ def limit_zone(spec):
 
 
 def levels(spec):
-    return TripLevels(spec.trip_stress, spec.trip_omega, spec.stress_every, spec.links_every,
-                      spec.zone_margin)
+    return TripLevels(spec.trip_stress, spec.trip_omega, spec.trip_damage, spec.stress_every,
+                      spec.links_every, spec.zone_margin)
 
 
 def check(spec):

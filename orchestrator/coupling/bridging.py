@@ -108,6 +108,12 @@ class Bridging:
         """DE weight at points x: 1 inside the DE zone."""
         return np.maximum(1.0 - self._ramp(x), WEIGHT_FLOOR)
 
+    def share(self, x):
+        """The FE's share of the band at points x, α without its floor (0 in the DE zone, 1
+        outside the band): with 1 − share for the spheres, a partition of unity that adds up
+        what both models hold."""
+        return self._ramp(x)
+
     def covers(self, x):
         """Mask of the points of a coupled model's DE part: the DE zone and the band."""
         return self.zone.depth(x) <= self.width

@@ -25,12 +25,19 @@ def omega_level(v):
     return None if 0 < v <= 1 else "in (0, 1] (link damage)"
 
 
+def damage_level(v):
+    return None if 0 < v <= 1 else "in (0, 1] (FE damage)"
+
+
 @dataclass(frozen=True)
 class TripLevels:
     """When a coupled run stops to grow its DE zone (docs/auto-zone.md):
     - stress: largest principal stress of an FE cell ≥ stress × ft. Default 1: the FE is
       linear-elastic and cannot crack, so concrete beyond its tensile strength there is
       concrete the model gets wrong;
+    - damage, where the FE carries damage instead (fenicsx_side.damaged): an FE cell's damage
+      ≥ damage. Default 0.9: the cell is cracked through, and concrete that breaks into
+      pieces is what only the spheres can follow;
     - omega: a link of a bridging sphere with damage ω ≥ omega (a broken link counts as 1).
       Default 0.1: partial damage in the band means the crack reaches where the coupling
       assumes an elastic continuum;
@@ -39,12 +46,14 @@ class TripLevels:
     - margin: cells added around the flagged ones (≥ 1, so the crack's front is inside)."""
     stress: float = 1.0
     omega: float = 0.1
+    damage: float = 0.9
     stress_every: int = 10
     links_every: int = 400
     margin: int = 1
 
     def __post_init__(self):
-        for name, check in (("stress", stress_level), ("omega", omega_level)):
+        for name, check in (("stress", stress_level), ("omega", omega_level),
+                            ("damage", damage_level)):
             complaint = check(getattr(self, name))
             if complaint:
                 raise ValueError(f"trip_{name} must be {complaint}, got {getattr(self, name)!r}")
@@ -74,7 +83,7 @@ class Watch:
         self.band = model.bridge_index
         self.band_pos = model.spheres.ref_pos[self.band]
         self.steps, self.seconds = 0, 0.0
-        self.peak_stress, self.peak_omega = 0.0, 0.0
+        self.peak_stress, self.peak_omega, self.peak_damage = 0.0, 0.0, 0.0
         step = model.step
 
         def watched():
@@ -89,7 +98,16 @@ class Watch:
 
     def _check(self, n):
         lv = self.levels
-        if self.fe_centres is not None and n % lv.stress_every == 0:
+        if self.fe_centres is not None and n % lv.stress_every == 0 and \
+                self.model.fe.carries_damage:
+            d = self.model.fe.damage
+            self.peak_damage = max(self.peak_damage, float(d.max(initial=0.0)))
+            over = d >= lv.damage
+            if over.any():
+                raise Tripped(n, f"FE damage {d.max():.3g} ≥ {lv.damage:g} in "
+                                 f"{np.count_nonzero(over)} cells",
+                              self.grid.cells_of(self.fe_centres[over]))
+        elif self.fe_centres is not None and n % lv.stress_every == 0:
             s1 = self.model.fe.stress().max_principal
             self.peak_stress = max(self.peak_stress, float(s1.max(initial=0.0)))
             over = s1 >= self.limit
@@ -173,6 +191,8 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
             "tripped_step": None if tripped is None else tripped.step,
             "indicator": None if tripped is None else tripped.indicator,
             "peak_fe_stress_Pa": watch.peak_stress, "peak_band_omega": watch.peak_omega,
+            "peak_fe_damage": (watch.peak_damage if model.fe is not None
+                               and model.fe.carries_damage else None),
             "indicator_s": watch.seconds, "wall_s": perf_counter() - t0})
         log(f"zone attempt {len(attempts)}: {int(zone.sum())} cells, "
             f"{model.sphere_count()} spheres: "

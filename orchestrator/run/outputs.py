@@ -9,7 +9,7 @@ from yade_side import yade_threads
 def summary(model, rec, schedule, wall, seconds, warnings, info):
     """summary.json's content: `info` first, then the run's figures."""
     m, history, final = model, np.array(rec.history), rec.maps[-1]
-    volume = 4.0 / 3.0 * np.pi * m.spheres.radius**3
+    damaged = m.damaged_volume(final)
     stepper = m.stepper
     out = dict(info or {})
     out.update({
@@ -26,7 +26,8 @@ def summary(model, rec, schedule, wall, seconds, warnings, info):
                     for i, name in enumerate(m.sensor_names)},
         "damage": {"initial_links": int(m.damage.initial.sum()),
                    "broken_links": int(np.round(final @ m.damage.initial)),
-                   "damaged_volume_m3": float(final @ volume),
+                   "damaged_volume_m3": damaged["total"],
+                   "damaged_volume_de_m3": damaged["de"], "damaged_volume_fe_m3": damaged["fe"],
                    "max_bridging_damage": float(final[m.bridge_index].max(initial=0.0))},
         "energy": rec.energy,
         "constraint_gap": rec.gaps,
@@ -34,6 +35,7 @@ def summary(model, rec, schedule, wall, seconds, warnings, info):
             "to_fe": stepper.exchange.to_fe, "net": stepper.exchange.net},
         "coupling": None if stepper is None else coupling_figures(stepper.coupling),
         "fe_peak_stress": None if m.fe is None else fe_peak(rec),
+        "fe_damage": fe_damage(m) if m.fe_damages else None,
         "warnings": warnings,
     })
     return out
@@ -44,6 +46,17 @@ def fe_peak(rec):
     s1, t1, vm, t2 = rec.fe_peak
     return {"max_principal_Pa": s1, "max_principal_t_s": t1, "von_mises_Pa": vm,
             "von_mises_t_s": t2}
+
+
+def fe_damage(m):
+    """What the FE's damage law left: the largest cell damage, the cells damaged and broken
+    (orchestrator.builder.Model.fe_broken), Σ D V (bulk m³) and the energy dissipated."""
+    fe = m.fe
+    return {"max": float(fe.damage.max(initial=0.0)),
+            "cells_damaged": int(np.count_nonzero(fe.damage)), "cells": int(fe.damage.size),
+            "cells_broken": int(m.fe_broken().sum()),
+            "damaged_bulk_volume_m3": float(fe.damage @ fe.cell_volume),
+            "dissipated_J": fe.dissipated}
 
 
 def coupling_figures(c):
@@ -61,9 +74,14 @@ def write_results(out, title, model, rec, summary_data, arrays=None):
     m, times, history = model, np.array(rec.times), np.array(rec.history)
     write_json(out / "summary.json", summary_data)
     write_sensors(out / "sensors.csv", m.sensor_names, times, history)
+    # where the FE carries damage, what its cells and the spheres weigh in the damaged volume
+    fe = ({"fe_centres": m.fe.cell_centres, "fe_volume": m.fe_cell_volumes(),
+           "fe_damage": m.fe.damage, "fe_broken": m.fe_broken(),
+           "sphere_share": m.sphere_shares()}
+          if m.fe_damages else {})
     save_npz(out / "damage.npz", times=np.array(rec.maps_t), damage=np.array(rec.maps),
              positions=m.spheres.ref_pos, radius=m.spheres.radius, in_de_zone=m.in_de_zone,
-             **(arrays or {}))
+             **fe, **(arrays or {}))
     plot_run(out, title, m.sensor_names, times, history, m.spheres.ref_pos, rec.maps[-1])
 
 

@@ -72,7 +72,8 @@ def save(out, record, model, meta, seconds):
              "gaps": np.array(record.gaps).reshape(-1, 3),
              "wall_s": record.wall_s, "fe_peak": np.array(record.fe_peak)}
     if model.fe is not None:
-        state.update(fe_u=model.fe.u, fe_v=model.fe.v, fe_t=model.fe.t)
+        state.update(fe_u=model.fe.u, fe_v=model.fe.v, fe_t=model.fe.t,
+                     **{f"fe_history_{k}": v for k, v in model.fe.history().items()})
     stepper = model.stepper
     if stepper is not None:
         state.update(rotation=stepper.bridge.rotation, rotation_pred=stepper.bridge.rotation_pred,
@@ -133,7 +134,8 @@ def load(out, model, meta):
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
         raise ValueError(f"{folder / 'state.npz'}: unreadable checkpoint file ({e})") from None
     needed = ["n", "times", "history", "energy", "maps_t", "maps", "gaps", "wall_s", "fe_peak"]
-    needed += ["fe_u", "fe_v", "fe_t"] if model.fe is not None else []
+    needed += (["fe_u", "fe_v", "fe_t"] + [f"fe_history_{k}" for k in model.fe.history()]
+               if model.fe is not None else [])
     needed += ["rotation", "rotation_pred"] if model.stepper is not None else []
     missing = [k for k in needed if k not in state]
     if missing == ["fe_peak"]:
@@ -145,6 +147,7 @@ def load(out, model, meta):
     load_scene(folder / "yade")
     if model.fe is not None:
         model.fe.u, model.fe.v, model.fe.t = state["fe_u"], state["fe_v"], float(state["fe_t"])
+        model.fe.restore_history({k: state[f"fe_history_{k}"] for k in model.fe.history()})
     stepper = model.stepper
     if stepper is not None:
         stepper.bridge.rotation[:] = state["rotation"]
