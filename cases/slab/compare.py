@@ -101,9 +101,12 @@ def take_probes(full, coupled):
         if f is None:
             raise ValueError(f"{c.folder}: the full runs carry the sensors of other zones; "
                              f"the full run of seed {seed} tells which are this run's: give it")
+        # fe_node is a node of the coupled run and the sphere nearest it in the full one: it
+        # follows from the bridging sensor, which is checked
         found = [label for label in {n.split(SEPARATOR)[0] for n in f.names if SEPARATOR in n}
                  if all(_at(f, name, _where(c, n))
-                        for n, name in zip(c.names, full_names(label, c.names)))]
+                        for n, name in zip(c.names, full_names(label, c.names))
+                        if n != "fe_node")]
         if len(found) != 1:
             raise ValueError(f"{c.folder}: {'no' if not found else 'more than one'} set of "
                              f"probes of the full run {f.folder} sits at its sensors")

@@ -97,32 +97,31 @@ class Watch:
         model.step = watched
 
     def _check(self, n):
-        lv = self.levels
-        if self.fe_centres is not None and n % lv.stress_every == 0 and \
-                self.model.fe.carries_damage:
-            d = self.model.fe.damage
-            self.peak_damage = max(self.peak_damage, float(d.max(initial=0.0)))
-            over = d >= lv.damage
-            if over.any():
-                raise Tripped(n, f"FE damage {d.max():.3g} ≥ {lv.damage:g} in "
-                                 f"{np.count_nonzero(over)} cells",
-                              self.grid.cells_of(self.fe_centres[over]))
-        elif self.fe_centres is not None and n % lv.stress_every == 0:
-            s1 = self.model.fe.stress().max_principal
-            self.peak_stress = max(self.peak_stress, float(s1.max(initial=0.0)))
-            over = s1 >= self.limit
-            if over.any():
-                raise Tripped(n, f"FE σ1 {s1.max() / 1e6:.3g} MPa ≥ {lv.stress:g} × ft in "
-                                 f"{np.count_nonzero(over)} cells",
-                              self.grid.cells_of(self.fe_centres[over]))
+        lv, fe = self.levels, self.model.fe
+        if self.fe_centres is not None and n % lv.stress_every == 0:
+            if fe.carries_damage:
+                d = fe.damage
+                self.peak_damage = max(self.peak_damage, float(d.max(initial=0.0)))
+                _trip(n, d, lv.damage, f"FE damage {d.max():.3g} ≥ {lv.damage:g} in {{}} cells",
+                      self.fe_centres, self.grid)
+            else:
+                s1 = fe.stress().max_principal
+                self.peak_stress = max(self.peak_stress, float(s1.max(initial=0.0)))
+                _trip(n, s1, self.limit, f"FE σ1 {s1.max() / 1e6:.3g} MPa ≥ {lv.stress:g} × ft "
+                                         f"in {{}} cells", self.fe_centres, self.grid)
         if self.band.size and n % lv.links_every == 0:
             worst = self.model.damage.worst_link()[self.band]
             self.peak_omega = max(self.peak_omega, float(worst.max(initial=0.0)))
-            hit = worst >= lv.omega
-            if hit.any():
-                raise Tripped(n, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} at "
-                                 f"{np.count_nonzero(hit)} spheres",
-                              self.grid.cells_of(self.band_pos[hit]))
+            _trip(n, worst, lv.omega, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} at {{}} "
+                                      f"spheres", self.band_pos, self.grid)
+
+
+def _trip(n, values, level, text, positions, grid):
+    """Tripped at step n if any of `values` reaches `level`: `text` with their count, the
+    cells of their `positions` flagged."""
+    over = values >= level
+    if over.any():
+        raise Tripped(n, text.format(np.count_nonzero(over)), grid.cells_of(positions[over]))
 
 
 @dataclass
