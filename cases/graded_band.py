@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cases.slab import SCALES, SLAB, SlabSpec, slab_grid
+from cases.slab.scales import concrete_set
 
 # today's paper-scale coupled model (docs/benchmarks.md): slab spheres (28,365 less the
 # impactor's 2,042) in the DE box + 3 layers of 0.0714 m cells; the bridging spheres among them
@@ -64,7 +65,7 @@ def de_critical_step(scale="paper", packing_fraction=None):
     φ the slab packing's fraction (default: 120,024 spheres of R = 11.2 mm in the slab)."""
     r = SCALES[scale].radius
     phi = packing_fraction or 120024 * 4 / 3 * np.pi * r**3 / np.prod(SLAB)
-    return r * np.sqrt(2400.0 / phi / SCALES[scale].cpm["young"])
+    return r * np.sqrt(2400.0 / phi / concrete_set(scale, "plain").cpm["young"])
 
 
 def graded_fe_critical_step(spec, layers, h, ratio_max=1.2, h_max=None, weighted=False):

@@ -91,9 +91,9 @@ def test_the_slab_takes_the_gf_set_of_its_scale():
     calibration record), and as many more steps as the stiffer spheres shorten the critical
     step (∝ 1/√young), so that the run lasts as long."""
     from cases.slab import SCALES, SlabSpec, concrete as params_of
-    from cases.slab.scales import concrete
+    from cases.slab.scales import concrete_set
     for scale in ("small", "medium"):
-        table, gf, plain_set = SCALES[scale], concrete(scale, "gf"), concrete(scale, "plain")
+        table, gf, plain_set = SCALES[scale], concrete_set(scale, "gf"), concrete_set(scale, "plain")
         spec = SlabSpec(scale=scale, concrete="gf")
         assert spec.cpm == gf.cpm
         assert (spec.poisson, spec.compressive_strength, spec.tensile_strength,

@@ -62,7 +62,7 @@ class Concrete:
 
 
 @functools.cache
-def concrete(scale, name):
+def concrete_set(scale, name):
     """The set `name` of `scale`, from its calibration record; None if the scale has none."""
     path = CALIBRATIONS / f"{scale}-{name}.json"
     if not path.is_file():

@@ -10,7 +10,7 @@ from orchestrator.casefile import (boolean, check_spec, choice, integer, non_neg
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
 from orchestrator.run.autozone import damage_level, omega_level, stress_level
-from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, concrete
+from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, concrete_set
 
 
 @dataclass
@@ -133,9 +133,9 @@ class SlabSpec:
         self.reinforcement = layers(self)
         self.reinforced = bool(self.reinforcement)
         table = SCALES[self.scale]
-        material = concrete(self.scale, self.concrete)
+        material = concrete_set(self.scale, self.concrete)
         if material is None:
-            have = ", ".join(name for name in SCALES if concrete(name, self.concrete))
+            have = ", ".join(name for name in SCALES if concrete_set(name, self.concrete))
             raise ValueError(f"slab: concrete {self.concrete!r} has no calibrated set at scale "
                              f"{self.scale!r} (only {have})")
         for name in ("poisson", "compressive_strength", "tensile_strength", "fracture_energy"):
@@ -144,7 +144,7 @@ class SlabSpec:
         if self.steps is None and self.concrete != "plain":
             # the same duration: the critical step is ∝ 1/√young
             self.steps = math.ceil(table.steps * math.sqrt(
-                material.cpm["young"] / concrete(self.scale, "plain").cpm["young"]))
+                material.cpm["young"] / concrete_set(self.scale, "plain").cpm["young"]))
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
@@ -175,7 +175,7 @@ class SlabSpec:
     @property
     def cpm(self):
         """The CPM micro-parameters of the scale's `concrete`."""
-        return concrete(self.scale, self.concrete).cpm
+        return concrete_set(self.scale, self.concrete).cpm
 
     def damage_law(self):
         """The FE damage law (fenicsx_side.damage_law.ConcreteDamage's fields)."""
