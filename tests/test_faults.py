@@ -403,6 +403,29 @@ def test_ctrl_c_finishes_the_step_checkpoints_and_exits_130(tmp_path):
     assert json.loads((out / "summary.json").read_text())["steps"] == 60
 
 
+def test_a_stopped_ensemble_stops_its_members_and_starts_no_more(tmp_path):
+    """SIGTERM to `slab --seeds`: the running member checkpoints and ends, the next is not
+    started, the parent exits 143 in one line; no member is left running."""
+    out = tmp_path / "ens"
+    proc = subprocess.Popen([sys.executable, "-m", "cli", "slab", "--model", "full", "--scale",
+                             "small", "--seeds", "1,2", "--jobs", "1", "--steps", "3000",
+                             "--checkpoint-every", "20", "--out", str(out), "--quiet"], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, OMP_NUM_THREADS="1"))
+    meta = out / "seed-1" / "checkpoint" / "meta.json"
+    while proc.poll() is None and not meta.is_file():
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    err = proc.communicate(timeout=300)[1]
+    assert proc.returncode == 143, err
+    assert "Traceback" not in err and err.strip().splitlines()[-1].startswith(
+        "stopped: ensemble")
+    assert "resume with --resume" in err             # the member's own line
+    assert not (out / "seed-2").exists()
+    members = subprocess.run(["pgrep", "-f", f"--out {out}/seed-"], capture_output=True)
+    assert members.stdout == b""
+
+
 # --- refused or warned instead of accepted silently ----------------------------------------
 @pytest.mark.parametrize("setting, message", [
     ("coupling.layers=50", "coupling.layers = 50: the bridging band is 5 m wide (50 × element "

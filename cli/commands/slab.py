@@ -101,23 +101,51 @@ def _ensemble(model, args):
     """One member per seed, DIR/seed-N, each a `slab --seed N` process of its own, `--jobs` at
     a time (default: one per core). Members run on one YADE thread unless --threads is given,
     so each is bit-identical to the same seed run alone with --threads 1."""
+    import signal
     import subprocess
     import sys
+    import threading
     from concurrent.futures import ThreadPoolExecutor
     from orchestrator.run.folder import prepare_out
+    from orchestrator.run.restart import Stopped
     from yade_side import cores
     top = prepare_out(args.out, args.force)
     jobs = args.jobs or max(1, min(len(args.seeds), cores()))
     quiet = args.quiet or jobs > 1          # one progress bar per terminal
+    running, lock, stopped = set(), threading.Lock(), []
 
     def member(seed):
         cmd = [sys.executable, "-m", "cli", "slab", "--model", model,
                *_spec_argv(args, seed), "--out", str(top / f"seed-{seed}"),
                "--threads", str(args.threads or 1)] + (["--quiet"] if quiet else [])
-        return subprocess.run(cmd).returncode
+        with lock:
+            if stopped:                     # asked to stop: start no more members
+                return None
+            proc = subprocess.Popen(cmd)
+            running.add(proc)
+        code = proc.wait()
+        with lock:
+            running.discard(proc)
+        return code
 
-    with ThreadPoolExecutor(max_workers=jobs) as pool:
-        codes = dict(zip(args.seeds, pool.map(member, args.seeds)))
+    def stop(signum, _frame):
+        """Stop the members as this process was asked to (each checkpoints: --resume)."""
+        with lock:
+            stopped.append(signum)
+            for proc in running:
+                proc.send_signal(signum)
+
+    previous = {s: signal.signal(s, stop) for s in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        with ThreadPoolExecutor(max_workers=jobs) as pool:
+            codes = dict(zip(args.seeds, pool.map(member, args.seeds)))
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    if stopped:
+        raise Stopped(f"ensemble {top}: stopped, and its running members with it (each "
+                      f"carries on with `slab --resume {top}/seed-N`; a member not started "
+                      f"runs with `--seed N`)", stopped[0])
     failed = [f"seed {s} ({_why_no_result(top / f'seed-{s}', c)})"
               for s, c in codes.items() if c]
     if failed:
