@@ -140,13 +140,7 @@ class DamageModel(ElasticModel):
         """The damage of u(t), then one central-difference step with the damaged force."""
         eps = self.cell_strain()
         self.update_damage(eps)
-        f = self.internal_force(eps)
-        np.subtract(self.f_ext, f, out=self._work)
-        self._work *= self._inv_mass_free
-        self._work *= dt
-        self._v += self._work
-        self._u += dt * self._v
-        self.t += dt
+        self._advance(self.internal_force(eps), dt)
 
     def strain_energy(self, weights=None):
         """½ Σ w u·f(u), f the damaged internal force; weights per dof (default 1)."""

@@ -160,10 +160,14 @@ class ElasticModel:
     def predict(self, dt):
         """One central-difference step without coupling: v += dt M⁻¹(f_ext − K u); u += dt v."""
         self._K_petsc.mult(self._u_vec, self._work_vec)
-        np.subtract(self.f_ext, self._work, out=self._work)
-        self._work *= self._inv_mass_free
-        self._work *= dt
-        self._v += self._work
+        self._advance(self._work, dt)
+
+    def _advance(self, force, dt):
+        """v += dt M⁻¹(f_ext − force); u += dt v (force, the internal force, is overwritten)."""
+        np.subtract(self.f_ext, force, out=force)
+        force *= self._inv_mass_free
+        force *= dt
+        self._v += force
         self._u += dt * self._v
         self.t += dt
 

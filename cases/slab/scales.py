@@ -52,12 +52,11 @@ CALIBRATIONS = Path(__file__).with_name("calibrations")
 class Concrete:
     """A CPM set of one scale and what its uniaxial tests measured on the scale's packing."""
     cpm: dict                   # CpmMat micro-parameters (the bulk density apart)
-    young: float                # E (Pa) of the packing
     poisson: float              # ν
     compressive_strength: float  # fc (Pa)
     tensile_strength: float     # ft (Pa): the tension (or separation) test's peak
-    fracture_energy: float      # Gf (J/m²) of the separation test; None: not measured
-    separated: bool             # the separation test broke the specimen apart (None: no test)
+    fracture_energy: float      # Gf (J/m²) of the separation test, None without one (a lower
+                                # bound if the specimen did not separate: the record says)
     record: str                 # the calibration.json it comes from
 
 
@@ -68,8 +67,7 @@ def concrete_set(scale, name):
     if not path.is_file():
         return None
     record = json.loads(path.read_text())
-    m, separation = record["measured"], record.get("separation")
+    m = record["measured"]
     cpm = {k: v for k, v in record["params"].items() if k != "density"}
-    return Concrete(cpm, m["E"], m["nu"], m["fc"], m["ft"], m.get("fracture_energy"),
-                    None if separation is None else separation["separated"],
+    return Concrete(cpm, m["nu"], m["fc"], m["ft"], m.get("fracture_energy"),
                     str(path.relative_to(Path(__file__).parents[2])))
