@@ -116,3 +116,13 @@ def test_bad_arguments_are_refused_in_one_line(kw, word):
     with pytest.raises(ValueError, match=word) as err:
         dense_box_packing(LO, HI, args.pop("radius"), spheres_in_cell=N, **args)
     assert "\n" not in str(err.value)
+
+
+def test_an_empty_cache_variable_means_the_users_cache_not_the_working_folder(tmp_path,
+                                                                               monkeypatch):
+    from yade_side.packing import cache_dir
+    monkeypatch.setenv("DEM_FEM_CACHE", "")
+    monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.chdir(tmp_path)
+    assert cache_dir() == tmp_path / ".cache" / "yade-fenicsx-coupling"
+    assert not (tmp_path / "cells").exists()

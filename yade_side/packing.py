@@ -36,8 +36,9 @@ _ROOT = Path(__file__).resolve().parents[1]
 
 
 def cache_dir():
-    """Where the packings are cached: $DEM_FEM_CACHE, else ~/.cache/…; never the repo."""
-    path = Path(os.environ.get("DEM_FEM_CACHE", Path.home() / ".cache" / "yade-fenicsx-coupling"))
+    """Where the packings are cached: $DEM_FEM_CACHE, else (unset or empty) ~/.cache/…; never
+    the working folder."""
+    path = Path(os.environ.get("DEM_FEM_CACHE") or Path.home() / ".cache" / "yade-fenicsx-coupling")
     try:
         (path / "cells").mkdir(parents=True, exist_ok=True)
     except OSError as err:
