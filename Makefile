@@ -8,7 +8,7 @@ export OMPI_ALLOW_RUN_AS_ROOT=1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 
 .PHONY: setup setup-paraview setup-image-build setup-slurm run validate render test test-slow \
-        docker-test bench wave1d-study study clean
+        docker-test bench bench-quick wave1d-study study clean
 
 # Idempotent: re-runs apt only when the package list changed. Without Debian's recommended
 # packages (about 1 GB more: LLVM, valgrind, numba, docs; nothing the stack imports).
@@ -85,9 +85,13 @@ wave1d-study: setup
 	$(PY) -m cli wave1d-study --out results/wave1d-study --force
 
 # Slab full vs coupled at small, medium and paper scale against the performance goals:
-# bench/results.json and docs/benchmarks.md (about 10 min; BENCH_ARGS=--quick: 1-2 min)
+# bench/results.json and docs/benchmarks.md (about 12 min). bench-quick (about 3 min): small
+# and medium only, and it fails if the medium coupled step is > 15 % slower than in results.json.
 bench: setup
 	$(PY) -m bench $(BENCH_ARGS)
+
+bench-quick: setup
+	$(PY) -m bench --quick
 
 # Where coupling pays (docs/where-coupling-pays.md): the coupled slab against the full
 # ensembles at medium scale, 10 and 40 m/s, zones x bridging layers, and the paper-scale pair;

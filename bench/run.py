@@ -26,6 +26,8 @@ PLANS = {
 IMPACT_AFTER_S = 5e-4     # the second window: 0.5 ms into the run, the slab cracking under the impactor
 THREADS = (1, 2)
 TIMEOUT_S = 1800
+# `--quick` fails when the medium coupled step is slower than bench/results.json's by more
+REGRESSION = 1.15
 
 
 def worker(task, threads=1):
@@ -70,6 +72,26 @@ def measure(plan):
     return raw
 
 
+def regression(raw, reference_path):
+    """Lines comparing the medium coupled step (CPU time per step, both windows) with the
+    reference run's, and whether it is slower by more than REGRESSION; the full model's ratio
+    alongside says how much of a change is the machine's."""
+    try:
+        reference = json.loads(Path(reference_path).read_text())["raw"]["scales"]["medium"]
+    except (OSError, ValueError, KeyError) as e:
+        return [f"bench: no reference medium figures in {reference_path} ({e})"], False
+    now = raw["scales"]["medium"]
+    lines, slower = [], False
+    for window in ("timing", "timing_impact"):
+        ratio = {model: now[model][window]["median_s"] / reference[model][window]["median_s"]
+                 for model in ("coupled", "full")}
+        slower |= ratio["coupled"] > REGRESSION
+        lines.append(f"bench: medium coupled step{' in the impact' if window != 'timing' else ''}"
+                     f" {1e3 * now['coupled'][window]['median_s']:.2f} ms = {ratio['coupled']:.3f}"
+                     f" x {reference_path.name}'s (full model {ratio['full']:.3f} x)")
+    return lines, slower
+
+
 def machine():
     return {"cpus": os.cpu_count(), "platform": platform.platform(),
             "python": platform.python_version(), "load_average": os.getloadavg()}
@@ -78,7 +100,9 @@ def machine():
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true",
-                        help="small and medium scales, fewer steps (a few minutes)")
+                        help="small and medium scales, fewer steps (a few minutes); fails if "
+                             "the medium coupled step is over 15 %% slower than in "
+                             "bench/results.json")
     parser.add_argument("--json", type=Path, help="results file (default: bench/results.json, "
                         "or bench/results-quick.json with --quick)")
     parser.add_argument("--md", type=Path, help="Markdown table (default: docs/benchmarks.md, "
@@ -103,6 +127,12 @@ def main(argv=None):
     for goal in results["goals"]:
         print(f"  {'met   ' if goal['met'] else 'MISSED' if goal['met'] is False else 'n/a   '} "
               f"{goal['goal']}: {goal['figure']}")
+    if args.quick:
+        lines, slower = regression(raw, ROOT / "bench/results.json")
+        print("\n".join(lines))
+        if slower:
+            sys.exit(f"bench: the medium coupled step regressed by more than "
+                     f"{REGRESSION - 1:.0%} against bench/results.json")
 
 
 if __name__ == "__main__":

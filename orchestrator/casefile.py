@@ -75,7 +75,7 @@ def strings(v):
         else (None, "a list of strings")
 
 
-def relaxation(v):
+def number_or_auto(v):
     return ("auto", None) if v == "auto" else (
         number(v) if number(v)[1] is None else (None, 'a number or "auto"'))
 
@@ -159,7 +159,8 @@ def check_spec(spec, owner):
     ValueError "owner: name must be ..., got value"."""
     for f in fields(spec):
         m, value = f.metadata, getattr(spec, f.name)
-        if "kind" not in m or value is None or (value == "auto" and m["kind"] is relaxation):
+        auto = value == "auto" and m.get("kind") in (number_or_auto, integer_or_auto)
+        if "kind" not in m or value is None or auto:
             continue
         converted, expected = m["kind"](value)
         complaint = expected or (m["check"](converted) if m["check"] and

@@ -114,6 +114,13 @@ def damage_within_full_scatter(damage):
     """The damage figures' verdicts of within_full_scatter alone: {figure: verdict}."""
     n = len(damage["full_seeds"])
     check_members(n, len(damage["coupled_seeds"]))
-    return {key: _verdict(_deviations(damage["coupled_vs_full_mean"][key]["ratio"]),
-                          _deviations(full["ratio_leave_one_out"]), n)
-            for key, full in damage["full"].items()}
+    out = {}
+    for key, full in damage["full"].items():
+        coupled = damage["coupled_vs_full_mean"][key]
+        if not any(full["members"]) and not any(coupled["members"]):
+            # no member damaged: they agree exactly, and so would a null prediction
+            out[key] = dict(_verdict([0.0], [0.0], n), null_within=True)
+            continue
+        out[key] = _verdict(_deviations(coupled["ratio"]),
+                            _deviations(full["ratio_leave_one_out"]), n)
+    return out

@@ -63,3 +63,21 @@ def test_goals_without_paper_scale_are_labelled_and_memory_not_judged():
                           machine_at_start={"cpus": 2, "load_average": (0.1, 0, 0)},
                           machine_at_end={"load_average": (0.2, 0, 0)}))
     assert "| medium | coupled | 20,000 | 8,000 |" in table
+
+
+def test_quick_regression_check_against_the_reference(tmp_path):
+    import json
+    from bench.run import REGRESSION, regression
+
+    def medium(coupled, full):
+        return {"scales": {"medium": {"coupled": worker_output(15_000, 6_000, yade=coupled),
+                                      "full": worker_output(25_000, 0, yade=full)}}}
+    reference = tmp_path / "results.json"
+    reference.write_text(json.dumps({"raw": medium(0.060, 0.080)}))
+    lines, slower = regression(medium(0.060 * REGRESSION * 0.98, 0.080), reference)
+    assert not slower and len(lines) == 2
+    assert f"= {REGRESSION * 0.98:.3f} x results.json's (full model 1.000 x)" in lines[0]
+    lines, slower = regression(medium(0.060 * REGRESSION * 1.01, 0.080), reference)
+    assert slower
+    lines, slower = regression(medium(0.06, 0.08), tmp_path / "none.json")
+    assert not slower and "no reference medium figures" in lines[0]

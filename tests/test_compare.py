@@ -13,9 +13,10 @@ T = np.linspace(0.0, 1e-3, 101)
 SHAPE = np.sin(np.pi * T / T[-1])          # peak 1 at mid-window
 
 
-def member(folder, model, seed, amplitude, scale="small", s_per_step=1.0, volume=1.0):
-    """A results folder whose z histories are amplitude × SHAPE on every sensor; 10 slab
-    spheres (the coupled model keeps the first 6, 4 of them in its DE zone)."""
+def member(folder, model, seed, amplitude, scale="small", s_per_step=1.0, volume=1.0,
+           end=T[-1]):
+    """A results folder whose z histories are amplitude × SHAPE on every sensor until `end`;
+    10 slab spheres (the coupled model keeps the first 6, 4 of them in its DE zone)."""
     folder.mkdir(parents=True)
     spec = {"scale": scale, "radius": 0.025, "impactor_speed": 40.0, "impactor_side": 0.3,
             "impactor_gap": 0.002, "steps": 100, "dt_safety": 0.15, "de_zone": 0.6,
@@ -25,7 +26,7 @@ def member(folder, model, seed, amplitude, scale="small", s_per_step=1.0, volume
         "full" else 6, "damage": {"damaged_volume_m3": volume, "broken_links": 10 * volume}})
     h = np.zeros((len(T), len(NAMES), 3))
     h[:, :, 2] = amplitude * SHAPE[:, None]
-    write_sensors(folder / "sensors.csv", NAMES, T, h)
+    write_sensors(folder / "sensors.csv", NAMES, T * end / T[-1], h)
     n = 10 if model == "full" else 6
     damage = np.linspace(0, 1, 10)[:n]
     save_npz(folder / "damage.npz", times=np.array([0.0, T[-1]]),
@@ -79,11 +80,13 @@ def test_ensembles_are_judged_against_the_full_scatter(tmp_path):
 @pytest.mark.parametrize("change, message", [
     (dict(scale="medium"), "members differ in scale"),
     (dict(model="full"), "two full runs have seed 1"),
+    (dict(end=2e-3), "members differ in duration: 1 ms"),
 ])
 def test_members_that_cannot_be_compared_are_refused(tmp_path, capsys, change, message):
     member(tmp_path / "full" / "seed-1", "full", 1, 1.0)
     member(tmp_path / "full" / "seed-2", "full", 2, 1.0)
-    member(tmp_path / "c", change.get("model", "coupled"), 1, 1.0, change.get("scale", "small"))
+    member(tmp_path / "c", change.get("model", "coupled"), 1, 1.0, change.get("scale", "small"),
+           end=change.get("end", T[-1]))
     args = ["compare", str(tmp_path / "full")]
     args += ["--full", str(tmp_path / "c")] if "model" in change else [str(tmp_path / "c")]
     args += ["--out", str(tmp_path / "cmp")]
@@ -91,6 +94,23 @@ def test_members_that_cannot_be_compared_are_refused(tmp_path, capsys, change, m
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "cmp").exists()
+
+
+def test_full_runs_at_another_time_step_are_judged_like_coupled_ones(tmp_path):
+    """A full ensemble at another step (half the steps of twice the length: the same time) is
+    the compared side; its figures land under "coupled"."""
+    for seed, a in zip((1, 2, 3), (0.9, 1.0, 1.1)):
+        member(tmp_path / "ref" / f"seed-{seed}", "full", seed, a)
+        member(tmp_path / "step" / f"seed-{seed}", "full", seed, a * 1.01)
+        spec_file = tmp_path / "step" / f"seed-{seed}" / "summary.json"
+        summary = json.loads(spec_file.read_text())
+        summary["spec"].update(steps=50, dt_safety=0.3)
+        write_json(spec_file, summary)
+    assert main(["compare", str(tmp_path / "ref"), str(tmp_path / "step"), "--out",
+                 str(tmp_path / "cmp")]) == 0
+    r = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+    assert r["pairs"]["1"]["sensors"]["de_zone"]["peak_ratio"] == pytest.approx(1.01, rel=1e-9)
+    assert r["ensemble"]["within_full_scatter"]["sensors"]["fe_node"]["nrms"]["within"]
 
 
 def test_a_verdict_needs_two_full_runs(tmp_path, capsys):

@@ -176,6 +176,15 @@ def test_damage_figures_and_verdict():
     assert not any(goals["paired"][0].values())
 
 
+def test_no_damage_anywhere_is_an_exact_agreement_that_says_nothing():
+    none = {"damaged_volume_m3": 0.0, "broken_links": 0}
+    d = ensemble.damage({1: none, 2: none, 3: none}, {1: none})
+    v = verdicts.damage_within_full_scatter(d)["damaged_volume_m3"]
+    assert v["within"] and v["null_within"] and v["coupled_max"] == 0.0
+    d = ensemble.damage({1: none, 2: none}, {1: {"damaged_volume_m3": 1e-6, "broken_links": 1}})
+    assert not verdicts.damage_within_full_scatter(d)["broken_links"]["within"]
+
+
 def test_absolute_goals():
     g = verdicts.absolute_goals({"a": 0.149, "b": 0.02}, {"a": 1.09, "b": 0.91}, 0.86)
     assert all(g.values())

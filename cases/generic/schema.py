@@ -7,7 +7,7 @@ import numpy as np
 
 from orchestrator.casefile import (CASE, FACES, OUTPUT, REQUIRED, UNSET, Key, at_least_one,
                                    axes, boolean, choice, components, divisions, integer,
-                                   non_negative, number, poisson_range, positive, relaxation,
+                                   non_negative, number, poisson_range, positive, number_or_auto,
                                    safety_range, step_count, string, strings, vector)
 from orchestrator.coupling.bridging import WEIGHTINGS
 
@@ -38,7 +38,7 @@ GENERIC = {
                  "zone_axes": Key(axes, [0, 1]), "layers": Key(integer, 3, at_least_one),
                  "element_size": Key(number, UNSET, positive),
                  "variant": Key(choice("full", "diagonal"), "diagonal"),
-                 "relaxation": Key(relaxation, "auto", positive),
+                 "relaxation": Key(number_or_auto, "auto", positive),
                  "rotations": Key(boolean, True),
                  "weighting": Key(choice(*WEIGHTINGS), "consistent")},
     "time": {"dt_safety": Key(number, 0.3, safety_range), "dt": Key(number, UNSET, positive),

@@ -2,7 +2,10 @@
 packing seeds. Each same-seed pair is compared sensor by sensor and sphere by sphere (the
 coupled slab's spheres are a subset of the full one's: the same packing); with two or more
 full members, the coupled runs are also judged against the full model's own scatter
-(orchestrator.ensemble, orchestrator.verdicts). Writes comparison.json and PNGs."""
+(orchestrator.ensemble, orchestrator.verdicts). Writes comparison.json and PNGs.
+The compared side may also be full runs of another setting (a time step, the shear release):
+they are judged the same way, under the key "coupled"; same-seed members must cover the
+same time."""
 import json
 from pathlib import Path
 
@@ -12,9 +15,10 @@ from common.files import save_figure, write_json
 from orchestrator import ensemble, verdicts
 from orchestrator.run.outputs import damage_map, read_sensors
 
-# the keys a full and a coupled member must share to be compared
-SAME = ("scale", "radius", "impactor_speed", "impactor_side", "impactor_gap", "steps",
-        "dt_safety", "de_zone", "full_width", "layers", "band_ratio", "concrete")
+# the keys a full and a coupled member must share to be compared (and their duration: the
+# step may differ)
+SAME = ("scale", "radius", "impactor_speed", "impactor_side", "impactor_gap", "de_zone",
+        "full_width", "layers", "band_ratio", "concrete")
 # those that only place the sensors: a full run carrying the probes of the coupled runs' zone
 # (cases.slab.probes, the study's full runs) stands for a full run of that zone
 ZONE_KEYS = ("de_zone", "full_width", "layers", "band_ratio")
@@ -49,7 +53,8 @@ class Run:
 
 
 def members(folders, model):
-    """{seed: Run} of run folders or ensemble folders (seed-N subfolders, `slab --seeds`)."""
+    """{seed: Run} of run folders or ensemble folders (seed-N subfolders, `slab --seeds`) of
+    the model `model` (or of one of the models `model`)."""
     runs = {}
     for folder in map(Path, folders):
         parts = sorted(folder.glob("seed-*/summary.json")) if not (folder / "summary.json").is_file() \
@@ -59,11 +64,12 @@ def members(folders, model):
                                     f"nor an ensemble of them (no seed-*/summary.json)")
         for part in parts:
             run = Run(part.parent)
-            if run.model != model:
+            if run.model not in (model if isinstance(model, tuple) else (model,)):
                 raise ValueError(f"{run.folder} holds a {run.model!r} slab run, expected {model!r} "
                                  f"(compare FULL COUPLED)")
             if run.seed in runs:
-                raise ValueError(f"two {model} runs have seed {run.seed}: {runs[run.seed].folder} "
+                raise ValueError(f"two {run.model} runs have seed {run.seed}: "
+                                 f"{runs[run.seed].folder} "
                                  f"and {run.folder}")
             runs[run.seed] = run
     return runs
@@ -72,7 +78,7 @@ def members(folders, model):
 def load(full_dirs, coupled_dirs, verdict=False):
     """({seed: Run} full, {seed: Run} coupled), checked comparable; `verdict`: a verdict
     against the full model's scatter is asked for, which needs two full runs at least."""
-    full, coupled = members(full_dirs, "full"), members(coupled_dirs, "coupled")
+    full, coupled = members(full_dirs, "full"), members(coupled_dirs, ("coupled", "full"))
     if verdict:
         verdicts.check_members(len(full), len(coupled))
     probed = take_probes(full, coupled)
@@ -83,7 +89,18 @@ def load(full_dirs, coupled_dirs, verdict=False):
     for r in [*full.values(), *coupled.values()]:
         if r.names != names:
             raise ValueError(f"{r.folder}: sensors {r.names}, the others {names}")
+    for seed in full.keys() & coupled.keys():
+        _check_duration(full[seed], coupled[seed])
     return full, coupled
+
+
+def _check_duration(f, c):
+    """A same-seed pair must cover the same time (to a sample interval), whatever its steps
+    (the step follows the packing's smallest sphere: seeds differ by a few %)."""
+    spacing = max(r.t[-1] - r.t[-2] for r in (f, c) if len(r.t) > 1)
+    if abs(f.t[-1] - c.t[-1]) > spacing * (1 + 1e-9):
+        raise ValueError(f"members differ in duration: {1e3 * f.t[-1]:.4g} ms ({f.folder}) vs "
+                         f"{1e3 * c.t[-1]:.4g} ms ({c.folder})")
 
 
 def take_probes(full, coupled):

@@ -5,12 +5,12 @@ import math
 from dataclasses import dataclass
 
 from orchestrator.casefile import (boolean, check_spec, choice, integer, non_negative, number,
-                                   poisson_range, positive, relaxation as relaxation_kind,
+                                   poisson_range, positive, number_or_auto,
                                    safety_range, spec_key as key, step_count)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
 from orchestrator.run.autozone import damage_level, omega_level, stress_level
-from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, concrete_set
+from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY, concrete_set
 
 
 @dataclass
@@ -78,15 +78,21 @@ class SlabSpec:
                          help="bridging weights: 'consistent' puts α, β inside the partners' "
                               "masses and stiffnesses (energy-conserving), 'nodal' is the "
                               "paper's (not conservative, docs/coupling.md)")
-    relaxation: object = key("auto", relaxation_kind, positive, section="coupling",
+    relaxation: object = key("auto", number_or_auto, positive, section="coupling",
                              help="relaxation r, or 'auto': the rule derived from the 1D band "
                                   "(docs/wave1d.md; r = 74.5 at small scale); the paper's 35 "
                                   "gives the same slab within the full model's scatter "
                                   "(docs/slab.md)")
     rotations: bool = key(True, boolean, section="coupling", help="couple sphere rotations")
-    dt_safety: float = key(0.15, number, safety_range, section="time",
-                           help="× the smaller critical step (at 0.3 the slab gains energy "
-                                "and disintegrates under a 40 m/s impact, docs/slab.md)")
+    dt_safety: object = key(0.15, number_or_auto, safety_range, section="time",
+                            help="× the smaller critical step (at 0.3 without shear_release "
+                                 "the slab gains energy under a 40 m/s impact, "
+                                 "docs/performance.md), or 'auto': the run picks it by short "
+                                 "pre-runs (cases/slab/timestep.py)")
+    shear_release: float = key(0.0, number, non_negative, section="time",
+                               help="period (s) of the release of the shear stiffness of links "
+                                    "past ω = 0.9, which makes steps past 0.15 stable (0: never; "
+                                    "docs/performance.md)")
     steps: int = key(None, integer, step_count, section="time",
                      help="steps; default per scale")
     sample_every: int = key(5, integer, positive, section="output",
@@ -125,6 +131,7 @@ class SlabSpec:
                                 "two-way mesh of 12 mm bars at 150 mm at both faces, 30 mm "
                                 "cover (docs/reinforcement.md)")
     relaxation_rule: str = None      # set by relaxation "auto": what the rule took r from
+    dt_choice: dict = None           # set after dt_safety "auto": what the pre-runs found
     reinforcement: tuple = None      # the bars' layers (cases.reinforcement.Layer, checked)
 
     def __post_init__(self):
@@ -141,10 +148,11 @@ class SlabSpec:
         for name in ("poisson", "compressive_strength", "tensile_strength", "fracture_energy"):
             if getattr(self, name) is None:
                 setattr(self, name, getattr(material, name))
-        if self.steps is None and self.concrete != "plain":
-            # the same duration: the critical step is ∝ 1/√young
-            self.steps = math.ceil(table.steps * math.sqrt(
-                material.cpm["young"] / concrete_set(self.scale, "plain").cpm["young"]))
+        chosen = self.dt_safety != "auto"     # else steps and r once the run has chosen dt
+        if self.steps is None and chosen:
+            # the table's duration: the critical step is ∝ 1/√young
+            self.steps = math.ceil(round(table.steps * STEPS_SAFETY / self.dt_safety * math.sqrt(
+                material.cpm["young"] / concrete_set(self.scale, "plain").cpm["young"]), 6))
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
@@ -161,7 +169,7 @@ class SlabSpec:
         if self.zone == "auto":
             from cases.slab.zone import check
             check(self)
-        if self.relaxation == "auto":
+        if self.relaxation == "auto" and chosen:
             from cases.slab.geometry import slab_grid
             from orchestrator.coupling.relaxation import auto_relaxation
             ratio = slab_grid(self).band_h / (2 * self.radius)

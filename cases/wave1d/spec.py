@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from orchestrator.casefile import (choice, integer, integer_or_auto as layers_kind, non_negative,
-                                   number, positive, relaxation as relaxation_kind, safety_range,
+                                   number, positive, number_or_auto, safety_range,
                                    spec_key as key)
 from orchestrator.coupling.bridging import WEIGHTINGS, check_weighting
 from orchestrator.coupling.correction import VARIANTS
@@ -38,7 +38,7 @@ MARGIN_ELEMENTS = 6            # clearance kept between waves and region edges, 
 class Wave1DSpec:
     variant: str = key("diagonal", choice(*VARIANTS), section="coupling",
                        help="multiplier solver")
-    relaxation: object = key("auto", relaxation_kind, positive, section="coupling",
+    relaxation: object = key("auto", number_or_auto, positive, section="coupling",
                              help="relaxation r >= 1, or 'auto': the rule of docs/wave1d.md")
     layers: object = key(3, layers_kind, positive, section="coupling",
                          help="bridging FE layers n_b, or 'auto' (with relaxation 'auto'): the "

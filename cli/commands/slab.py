@@ -51,9 +51,9 @@ def run(args):
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
         if model != "coupled":
             raise ValueError(f"--model {model} has no FE part: run it without mpirun")
-        if spec.zone == "auto":
-            raise ValueError("--zone auto rebuilds the FE model at each attempt: run it "
-                             "without mpirun")
+        if "auto" in (spec.zone, spec.dt_safety):
+            raise ValueError("--zone auto and --dt-safety auto build the model more than "
+                             "once: run them without mpirun")
         if comm.rank > 0:
             from fenicsx_side.distributed import serve
             grid = slab.slab_grid(spec)

@@ -7,8 +7,9 @@ import json
 from dataclasses import MISSING, asdict, fields
 from pathlib import Path
 
-# keys that change no result: free text, how often the run checkpoints
-IGNORED = {"case.description", "output.checkpoint_every", "checkpoint_every"}
+# keys that change no result: free text, how often the run checkpoints, how the run chose
+# the dt_safety it records
+IGNORED = {"case.description", "output.checkpoint_every", "checkpoint_every", "dt_choice"}
 FILES = ("de.script", "fe.mesh")     # case keys naming a file whose content is an input
 
 
