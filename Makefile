@@ -2,7 +2,7 @@
 # Everything runs on Debian's /usr/bin/python3 (YADE and dolfinx are packaged for it).
 PY      ?= /usr/bin/python3
 STAMP   := .setup-done
-PKGS    := $(shell grep -v '^\#' docker/packages.txt)
+PKGS    := $(shell grep -hv '^\#' docker/packages.txt docker/packages-browser.txt)
 export OMP_NUM_THREADS ?= 1
 export OMPI_ALLOW_RUN_AS_ROOT=1
 export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
@@ -13,7 +13,7 @@ export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 # Idempotent: re-runs apt only when the package list changed. Without Debian's recommended
 # packages (about 1 GB more: LLVM, valgrind, numba, docs; nothing the stack imports).
 setup: $(STAMP)
-$(STAMP): docker/packages.txt
+$(STAMP): docker/packages.txt docker/packages-browser.txt
 	apt-get update
 	DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends $(PKGS)
 	$(PY) -c "import cli.env as e; e.check()"

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cases.slab import compare_page
 from common.files import save_figure, write_json
 from orchestrator import ensemble, verdicts
 from orchestrator.run.outputs import damage_map, read_sensors
@@ -164,6 +165,7 @@ def compare(full, coupled, out, verdict=False):
     for seed in pairs:
         _plot_pair(out, f"-seed-{seed}" if len(pairs) > 1 else "", names, full[seed],
                    coupled[seed])
+    compare_page.write(result, full, coupled, out)
     return result
 
 

@@ -53,6 +53,10 @@ def checks_cell(row):
 
 
 def config_line(row):
+    return "| " + " | ".join(config_cells(row)) + " |"
+
+
+def config_cells(row):
     acc = row["accuracy"] or {}
     sensors = acc.get("sensors", {})
     sp = row["speedup"]
@@ -68,13 +72,14 @@ def config_line(row):
     cells += [damage_cell(acc), checks_cell(row), spent,
               ("**yes**" if row["goal"]["qualifies"] else "no" if row["goal"]["qualifies"]
                is False else "undetermined") + f": {row['goal']['why']}"]
-    return "| " + " | ".join(cells) + " |"
+    return cells
 
 
-HEADER = ("| configuration | seeds | spheres | sphere ratio | speed-up per step | "
-          + " | ".join(f"{n}: nRMS / scatter" for n in SENSORS)
-          + " | damaged volume: deviation / scatter | post-run checks | wall s spent | goal |"
-          + "\n|" + "---|" * (9 + len(SENSORS)) + "\n")
+HEADER_CELLS = (["configuration", "seeds", "spheres", "sphere ratio", "speed-up per step"]
+                + [f"{n}: nRMS / scatter" for n in SENSORS]
+                + ["damaged volume: deviation / scatter", "post-run checks", "wall s spent",
+                   "goal"])
+HEADER = ("| " + " | ".join(HEADER_CELLS) + " |\n|" + "---|" * len(HEADER_CELLS) + "\n")
 
 
 def impact_title(impact):
@@ -330,5 +335,42 @@ def write(table, out, doc_path, doc_text):
     from common.files import write_json
     write_json(out / "table.json", table)
     write_text(out / "table.md", markdown(table))
+    page(table, out)
     if doc_path is not None:
         write_text(doc_path, doc_text)
+
+
+def page(table, out):
+    """out/report.html: the table of each impact (table.md's cells, its bold shown red), its
+    picture, what qualifies, and the paper's Table 1 row."""
+    from common.html import heading, items, paragraph, picture, table as html_table, write_page
+
+    def cell(text):
+        return (text.replace("**", ""), "bad") if "**" in text else text
+    found = [f"{impact_title(impact)}: {row['config']} ({row['goal']['why']})"
+             for impact, row in qualifying(table)]
+    blocks = [heading("Where coupling pays"),
+              items(found) if found else paragraph("No configuration qualifies at this "
+                                                   "resolution.")]
+    for impact in table["impacts"]:
+        blocks += [heading(impact_title(impact)),
+                   html_table(HEADER_CELLS, [[cell(c) for c in config_cells(row)]
+                                             for row in impact["configs"]],
+                              f"impact-{impact['group']}")]
+        if impact["scale"] != "paper":
+            blocks.append(picture(out / f"{impact['group']}.png",
+                                  f"{impact_title(impact)}: deviation against speed-up, the "
+                                  f"full scatter as a band"))
+    t = table.get("table1")
+    if t:
+        hours = lambda s: "–" if s is None else f"{s / 3600:.2f}"
+        rows = [[name, _f(m["spheres"], "{:.0f}"), fe, layers, m["steps"],
+                 _f(m["wall_s"], "{:.0f}"), hours(m["projected_100k_steps_s"]["timed"]),
+                 hours(m["projected_100k_steps_s"]["run"])]
+                for name, m, fe, layers in (("coupled", t["coupled"], t["coupled"]["fe_nodes"],
+                                             t["coupled"]["n_b"]), ("full", t["full"], 0, "–"))]
+        blocks += [heading(f"The paper's Table 1 row ({t['velocity']:g} m/s, {t['config']})"),
+                   html_table(["model", "spheres", "FE nodes", "n_b", "steps", "wall s",
+                               "100,000 steps, timed (h)", "100,000 steps, from the run (h)"],
+                              rows, "table1")]
+    return write_page(out / "report.html", "study: where coupling pays", blocks)

@@ -43,7 +43,11 @@ def run(args):
             print(f"{name:14s} coupled nRMS to the full mean {_f(n['coupled_max'])} (largest), "
                   f"full scatter {_f(n['full_leave_one_out_max'])}: "
                   f"{'within' if n['within'] else 'OUTSIDE'}{' (weak: 2 full runs)' if n['weak'] else ''}")
-    print(f"results in {out}")
+        for name, v in r["ensemble"]["within_full_scatter"].get("damage", {}).items():
+            print(f"{name:14s} coupled |ratio - 1| to the full mean {_f(v['coupled_max'])} "
+                  f"(largest), full scatter {_f(v['full_leave_one_out_max'])}: "
+                  f"{'within' if v['within'] else 'OUTSIDE'}")
+    print(f"results in {out}; the page: {out / 'report.html'}")
     return 0
 
 

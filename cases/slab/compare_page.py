@@ -1,0 +1,67 @@
+"""report.html of a `compare`: the verdict table, the same-seed pairs, the sensor bands and
+damage maps (the PNGs compare wrote, inlined) and each compared run's own checks, in one page.
+Every figure in its tables is comparison.json's, printed to 4 significant digits."""
+from common.html import heading, items, paragraph, picture, table, write_page
+
+
+def num(x):
+    return "n/a" if x is None else float(f"{x:.4g}")
+
+
+def verdict_cell(v):
+    if v["within"]:
+        return ("within" + (" (weak: 2 full runs)" if v["weak"] else "")
+                + (" (a null prediction too)" if v.get("null_within") else ""), "good")
+    return ("OUTSIDE", "bad")
+
+
+def write(result, full, coupled, out):
+    """out/report.html for the comparison `result` of the runs {seed: Run} `full`, `coupled`."""
+    blocks = [paragraph(f"Reference (full) runs: {', '.join(result['full'])}"),
+              paragraph(f"Compared runs: {', '.join(result['coupled'])}")]
+    ens = result.get("ensemble", {})
+    if "within_full_scatter" in ens:
+        w = ens["within_full_scatter"]
+        rows = [[name, num(v["nrms"]["coupled_max"]), num(v["nrms"]["full_leave_one_out_max"]),
+                 verdict_cell(v["nrms"]), num(v["peak"]["coupled_max"]),
+                 num(v["peak"]["full_leave_one_out_max"]), verdict_cell(v["peak"])]
+                for name, v in w["sensors"].items()]
+        damage = [[name, num(v["coupled_max"]), num(v["full_leave_one_out_max"]),
+                   verdict_cell(v)] for name, v in w.get("damage", {}).items()]
+        blocks += [heading("Against the full model's own scatter"),
+                   paragraph("Largest deviation of a compared run from the full mean against the "
+                             "largest leave-one-out deviation of a full member (docs/slab.md)."),
+                   table(["sensor", "nRMS, compared", "nRMS, full scatter", "verdict",
+                          "peak |ratio − 1|, compared", "full scatter", "verdict"],
+                         rows, "verdicts"),
+                   table(["figure", "|ratio − 1|, compared", "full scatter", "verdict"], damage,
+                         "damage-verdicts"),
+                   picture(out / "ensemble_histories.png",
+                           "z histories: the full members' band and the compared runs"),
+                   picture(out / "ensemble_damage_maps.png", "mean damage maps, seen from above")]
+    blocks.append(heading("Same-seed pairs"))
+    rows = []
+    for seed, p in result["pairs"].items():
+        rows += [[seed, name, num(s["peak_ratio"]), num(s["nrms"]),
+                  num(1e3 * s["peak_time_full_s"]), num(1e3 * s["peak_time_coupled_s"])]
+                 for name, s in p["sensors"].items()]
+    blocks.append(table(["seed", "sensor", "peak ratio", "nRMS", "peak at, full (ms)",
+                         "peak at, compared (ms)"], rows, "pairs"))
+    blocks.append(table(["seed", "damaged volume ratio", "damage map correlation (DE zone)",
+                         "speed-up per step", "sphere-count ratio"],
+                        [[seed, num(p["damage"]["damaged_volume_ratio"]),
+                          num(p["damage"]["damage_map_correlation_de_zone"]),
+                          num(p["speedup_per_step"]), num(p["sphere_count_ratio"])]
+                         for seed, p in result["pairs"].items()], "pair-figures"))
+    suffix = (lambda seed: f"-seed-{seed}") if len(result["pairs"]) > 1 else (lambda seed: "")
+    for seed in result["pairs"]:
+        blocks += [picture(out / f"histories{suffix(seed)}.png", f"seed {seed}: z histories"),
+                   picture(out / f"damage_maps{suffix(seed)}.png",
+                           f"seed {seed}: damage in the DE zone")]
+    blocks.append(heading("The runs' own checks"))
+    for label, runs in (("full", full), ("compared", coupled)):
+        for seed, r in sorted(runs.items()):
+            warnings = r.summary.get("warnings") or ["no warning"]
+            blocks += [paragraph(f"{label} seed {seed} ({r.summary['model']}, {r.folder}):"),
+                       items(warnings)]
+    return write_page(out / "report.html", "compare: full against compared slab runs", blocks)
