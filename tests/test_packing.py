@@ -16,6 +16,7 @@ LO, HI, R, N = (0.0, 0.0, 0.0), (0.24, 0.2, 0.16), 0.02, 300  # ~70 spheres, cel
 
 def build(cache, monkeypatch, radius=R, seed=1, hi=HI):
     monkeypatch.setenv("DEM_FEM_CACHE", str(cache))
+    monkeypatch.setattr("yade_side.packing.SHIPPED", cache / "none")   # compact, never ship
     c, r = sphere_arrays(dense_box_packing(LO, hi, radius, seed=seed, spheres_in_cell=N))
     return np.column_stack([c, r])
 
@@ -126,3 +127,36 @@ def test_an_empty_cache_variable_means_the_users_cache_not_the_working_folder(tm
     monkeypatch.chdir(tmp_path)
     assert cache_dir() == tmp_path / ".cache" / "yade-fenicsx-coupling"
     assert not (tmp_path / "cells").exists()
+
+
+def test_a_shipped_cell_is_read_when_the_cache_lacks_it(reference, tmp_path, monkeypatch):
+    """A fresh cache with the reference cell among the shipped ones: no compaction (the child
+    would fail: no python there), the same packing."""
+    shipped = tmp_path / "shipped"
+    shipped.mkdir()
+    key = cell_key(np.subtract(HI, LO), R, 0.0, 1, N)
+    monkeypatch.setenv("DEM_FEM_CACHE", str(reference[0]))
+    shutil.copy(cell_path(key), shipped / cell_path(key).name)
+    monkeypatch.setenv("DEM_FEM_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr("yade_side.packing.SHIPPED", shipped)
+    monkeypatch.setattr("sys.executable", str(tmp_path / "no-python"))
+    c, r = sphere_arrays(dense_box_packing(LO, HI, R, seed=1, spheres_in_cell=N))
+    assert np.column_stack([c, r]).tobytes() == reference[1].tobytes()
+
+
+@pytest.mark.slow
+def test_every_shipped_cell_is_what_its_key_compacts_to(tmp_path):
+    """The cells shipped in yade_side/cells, compacted afresh from the key each holds: the same
+    bits (minutes: ~10 s per cell)."""
+    import json
+    from yade_side.packing import SHIPPED, _compact_in_child, _read_cell
+    files = sorted(SHIPPED.glob("*.npz"))
+    assert files, f"no shipped cells in {SHIPPED}"
+    for path in files:
+        with np.load(path) as f:
+            key = json.loads(str(f["key"]))
+        assert path.name == cell_path(key).name        # named by its key's hash
+        fresh = tmp_path / path.name
+        _compact_in_child(key, fresh)
+        for a, b in zip(_read_cell(path, key), _read_cell(fresh, key)):
+            assert a.tobytes() == b.tobytes(), path.name

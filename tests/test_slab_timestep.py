@@ -30,7 +30,7 @@ def test_the_largest_passing_rung_is_chosen_and_each_pre_run_made_once():
     assert chosen.dt_safety == 0.4 and LADDER[:2] == (0.5, 0.4)
     assert calls == [0.5, 0.25, 0.4, 0.2]
     tried = chosen.dt_choice["tried"]
-    assert [s for s, _ in tried] == [0.5, 0.4]
+    assert [s for s, _ in tried] == [0.5, 0.4] and chosen.dt_choice["passed"]
     assert tried[0][1] > TOLERANCE >= tried[1][1]
     assert "more than 1 %" in lines[0] and "more than" not in lines[1]
     # the chosen spec is a whole one: the table's duration at 0.4, r from the rule at 0.4
@@ -42,9 +42,11 @@ def test_no_passing_rung_takes_the_last_one():
     def gaining(spec, model, safety):
         t = np.linspace(0.0, 1e-3, 30)
         return t, 1.0 + 0.2 * safety * t / 1e-3, 1.0      # 0.1·s of the impact energy
-    chosen = choose(SlabSpec(dt_safety="auto"), "full", gaining, lambda line: None)
-    assert chosen.dt_safety == LADDER[-1]
-    assert len(chosen.dt_choice["tried"]) == len(LADDER) - 1
+    lines = []
+    chosen = choose(SlabSpec(dt_safety="auto"), "full", gaining, lines.append)
+    assert chosen.dt_safety == LADDER[-1] and chosen.dt_choice["passed"] is False
+    assert len(chosen.dt_choice["tried"]) == len(LADDER)
+    assert lines[-1].startswith("slab: no step of 0.5, 0.4, 0.3, 0.2, 0.15 × critical")
 
 
 def test_auto_is_a_case_file_value_and_other_words_are_not():

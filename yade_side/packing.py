@@ -33,6 +33,10 @@ SPHERES_IN_CELL = 2000
 # Bump when the way a cell is made changes, so that older cached cells are no longer used.
 ALGORITHM = "randomDensePack-periodic/1"
 _ROOT = Path(__file__).resolve().parents[1]
+# Cells shipped with the project (the ones `make test` and `make run` use), read when the cache
+# lacks them: a fresh machine does not spend minutes compacting them. The same exact-key check
+# applies; tests/test_packing.py compacts each afresh and compares them bit for bit (slow).
+SHIPPED = Path(__file__).resolve().parent / "cells"
 
 
 def cache_dir():
@@ -102,6 +106,13 @@ def periodic_cell(key):
             return _read_cell(path, key)
         except ValueError as err:
             print(f"warning: packing cache file {path} is unusable, rebuilding it: {err}",
+                  file=sys.stderr)
+    shipped = SHIPPED / path.name
+    if shipped.exists():
+        try:
+            return _read_cell(shipped, key)
+        except ValueError as err:
+            print(f"warning: shipped packing cell {shipped} is unusable, compacting it: {err}",
                   file=sys.stderr)
     _compact_in_child(key, path)
     return _read_cell(path, key)
