@@ -1,5 +1,6 @@
-"""report.html of `compare`, opened in a real headless browser (Debian's chromium, installed by
-`make setup`): every picture decodes, and the tables' figures are comparison.json's."""
+"""report.html of `compare` and `study`, opened in a real headless browser (Debian's chromium,
+installed by `make setup-browser`, which `make test` runs): every picture decodes, and the
+tables' figures are comparison.json's (table.json's)."""
 import json
 import shutil
 import subprocess
@@ -8,7 +9,7 @@ from html.parser import HTMLParser
 import pytest
 
 from cli.main import main
-from tests.test_compare import member
+from test_compare import member
 
 
 class Tables(HTMLParser):
@@ -44,7 +45,7 @@ def browser_dom(page):
     """The page's DOM after its scripts ran, as chromium --headless dumps it."""
     chromium = shutil.which("chromium")
     if chromium is None:
-        pytest.fail("chromium is not installed: `make setup` (Debian's chromium)")
+        pytest.fail("chromium is not installed: `make setup-browser` (Debian's chromium)")
     proc = subprocess.run([chromium, "--headless", "--no-sandbox", "--disable-gpu",
                            "--virtual-time-budget=10000", "--dump-dom", page.as_uri()],
                           capture_output=True, text=True, timeout=120)
@@ -102,7 +103,7 @@ def test_compare_report_opens_in_a_browser_with_every_picture_and_figure(tmp_pat
 
 def test_study_report_opens_in_a_browser_with_the_table_and_its_picture(tmp_path):
     from cases.slab import study_report as report, study_table as st
-    from tests.test_study import by_name, full_ensemble, runs_at, write_member
+    from test_study import by_name, full_ensemble, runs_at, write_member
     runs = runs_at(40.0)
     full_ensemble(tmp_path, runs)
     d = by_name(runs, "zone-0.9m-strip-nb3", 1)
