@@ -130,7 +130,8 @@ def run(task):
     m = SlabModel(spec, task["model"], _zone(spec, task.get("zone_cells")))
     result = {"task": task, "build_s": perf_counter() - t0, "n_spheres": m.sphere_count(),
               "n_bridging_spheres": len(m.bridge_index),
-              "n_fe_nodes": 0 if m.fe is None else len(m.fe.nodes), "dt": m.dt}
+              "n_fe_nodes": 0 if m.fe is None else len(m.fe.nodes), "dt": m.dt,
+              "dt_safety": spec.dt_safety}
     result["timing"] = timed_steps(m, task["warmup"], task["steps"])
     if task.get("output"):
         result["output"] = output_cost(m)

@@ -34,7 +34,7 @@ from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 
-from cases.slab.scales import SLAB
+from cases.slab.scales import SLAB, STEPS_SAFETY
 from cases.slab.spec import SlabSpec
 
 VELOCITIES = (10.0, 20.0, 40.0)          # m/s, the study's
@@ -276,11 +276,19 @@ def load_bench(path=None):
     path = Path(path or BENCH)
     try:
         data = json.loads(path.read_text())
-        return {s: {m: dict(f[m], n_fe_nodes=data["raw"]["scales"][s][m]["n_fe_nodes"])
+        raw = data["raw"]["scales"]
+        return {s: {m: dict(f[m], n_fe_nodes=raw[s][m]["n_fe_nodes"],
+                            dt=_today_dt(f[m]["dt"], raw[s][m].get("dt_safety", STEPS_SAFETY)))
                     for m in ("full", "coupled")} for s, f in data["per_scale"].items()}
     except (OSError, ValueError, KeyError) as e:
         raise ValueError(f"study: the recorded benchmark {path} is unreadable ({e}): run "
                          f"`make bench`") from None
+
+
+def _today_dt(dt, safety):
+    """The benchmark's step `dt`, taken at dt_safety `safety` (benchmarks before the field was
+    recorded: the old default, STEPS_SAFETY), at today's default dt_safety."""
+    return dt * SlabSpec.dt_safety / safety
 
 
 def counts(spec, full_spheres):
