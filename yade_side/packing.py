@@ -98,22 +98,17 @@ def cell_path(key):
 
 def periodic_cell(key):
     """(centres, radii, cell size) of the compacted periodic cell `key`: from the cache if it holds
-    exactly that cell, else compacted afresh and cached. An unreadable or mismatching cache file
-    is rebuilt (the cell is deterministic, so the rebuild gives what the file should have held)."""
+    exactly that cell, else from the shipped cells, else compacted afresh and cached. An
+    unreadable or mismatching file is passed over with a warning (the cell is deterministic, so
+    the rebuild gives what the file should have held)."""
     path = cell_path(key)
-    if path.exists():
-        try:
-            return _read_cell(path, key)
-        except ValueError as err:
-            print(f"warning: packing cache file {path} is unusable, rebuilding it: {err}",
-                  file=sys.stderr)
-    shipped = SHIPPED / path.name
-    if shipped.exists():
-        try:
-            return _read_cell(shipped, key)
-        except ValueError as err:
-            print(f"warning: shipped packing cell {shipped} is unusable, compacting it: {err}",
-                  file=sys.stderr)
+    for where, what, then in ((path, "packing cache file", "rebuilding it"),
+                              (SHIPPED / path.name, "shipped packing cell", "compacting it")):
+        if where.exists():
+            try:
+                return _read_cell(where, key)
+            except ValueError as err:
+                print(f"warning: {what} {where} is unusable, {then}: {err}", file=sys.stderr)
     _compact_in_child(key, path)
     return _read_cell(path, key)
 
