@@ -14,10 +14,12 @@ def _pyplot():
     return plt
 
 
-def plot_histories(path, full, coupled, sensors, ylabel="z displacement (mm)", scale=1e3):
+def plot_histories(path, full, coupled, sensors, ylabel="z displacement (mm)", scale=1e3,
+                   labels=("full", "coupled")):
     """One panel per sensor: the full ensemble's min–max band and mean, each coupled member as a
     line. full, coupled: {seed: (t (s), h (n_times, n_sensors))}, all on the common time base of
-    orchestrator.ensemble; histories are multiplied by `scale` (default: m to mm)."""
+    orchestrator.ensemble; histories are multiplied by `scale` (default: m to mm); `labels`:
+    the names of the two sides in the legends."""
     plt = _pyplot()
     t, mean, lo, hi = band(full, coupled)
     cols = 2 if len(sensors) > 1 else 1
@@ -26,11 +28,11 @@ def plot_histories(path, full, coupled, sensors, ylabel="z displacement (mm)", s
                              squeeze=False)
     for k, (ax, name) in enumerate(zip(axes.ravel(), sensors)):
         ax.fill_between(t * 1e3, lo[:, k] * scale, hi[:, k] * scale, color="0.8",
-                        label=f"full, {len(full)} seeds: min–max")
-        ax.plot(t * 1e3, mean[:, k] * scale, "k-", lw=1.5, label="full: mean")
+                        label=f"{labels[0]}, {len(full)} seeds: min–max")
+        ax.plot(t * 1e3, mean[:, k] * scale, "k-", lw=1.5, label=f"{labels[0]}: mean")
         for seed in sorted(coupled):
             ax.plot(t * 1e3, resample(t, coupled[seed])[:, k] * scale, "--", lw=1,
-                    label=f"coupled, seed {seed}")
+                    label=f"{labels[1]}, seed {seed}")
         ax.set(title=name, xlabel="time (ms)", ylabel=ylabel)
         ax.legend(fontsize="small")
     for ax in axes.ravel()[len(sensors):]:
@@ -39,17 +41,17 @@ def plot_histories(path, full, coupled, sensors, ylabel="z displacement (mm)", s
     save_figure(fig, path)
 
 
-def plot_mean_damage_maps(path, maps, n_full, n_coupled):
+def plot_mean_damage_maps(path, maps, n_full, n_coupled, labels=("full", "coupled")):
     """Plan views of the ensembles' mean damage maps (orchestrator.ensemble.mean_damage_maps),
-    one dot per grid cell that holds spheres."""
+    one dot per grid cell that holds spheres; `labels` as plot_histories'."""
     plt = _pyplot()
     x, y = np.meshgrid(maps["x"], maps["y"], indexing="ij")
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
-    for ax, key, n in zip(axes, ("full", "coupled"), (n_full, n_coupled)):
+    for ax, key, label, n in zip(axes, ("full", "coupled"), labels, (n_full, n_coupled)):
         grid = maps[key]
         held = np.isfinite(grid)
         damage_map(ax, np.column_stack([x[held], y[held]]), grid[held],
-                   f"{key}: mean damage of {n} seeds")
+                   f"{label}: mean damage of {n} seeds")
     corr = maps["correlation"]
     fig.suptitle("correlation of the mean maps: " + ("undefined" if corr is None
                                                      else f"{corr:.3f}"))

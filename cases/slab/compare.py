@@ -236,15 +236,23 @@ def _ensemble(full, coupled, names, out):
     dmg = ensemble.damage(figures(full), figures(coupled))
     maps = ensemble.mean_damage_maps(_maps(full), _maps(coupled, de_zone=True), (0.0, 0.0),
                                      (2.5, 2.0), PLAN_CELL)
+    labels = ("full", _side(coupled))
     plot_histories(out / "ensemble_histories.png", z(full), z(coupled), names,
-                   ylabel="z displacement (mm)")
-    plot_mean_damage_maps(out / "ensemble_damage_maps.png", maps, len(full), len(coupled))
+                   ylabel="z displacement (mm)", labels=labels)
+    plot_mean_damage_maps(out / "ensemble_damage_maps.png", maps, len(full), len(coupled),
+                          labels)
     result = {"histories": hist, "damage": dmg,
               "mean_damage_map_correlation": maps["correlation"],
               "goals": verdicts.ensemble_goals(hist, dmg)}
     if coupled:
         result["within_full_scatter"] = verdicts.within_full_scatter(hist, dmg)
     return result
+
+
+def _side(runs):
+    """How the plots name the compared runs: "coupled", or "compared" when full runs of another
+    setting are among them."""
+    return "coupled" if all(r.model == "coupled" for r in runs.values()) else "compared"
 
 
 def _maps(runs, de_zone=False):
@@ -271,7 +279,7 @@ def _plot_pair(out, suffix, names, f, c):
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True)
     for ax, i, name in zip(axes.ravel(), range(len(names)), names):
-        for label, r, style in (("full", f, "-"), ("coupled", c, "--")):
+        for label, r, style in (("full", f, "-"), (_side({0: c}), c, "--")):
             ax.plot(r.t * 1e3, r.h[:, i, 2] * 1e3, style, label=label)
         ax.set(title=name, xlabel="time (ms)", ylabel="z displacement (mm)")
         ax.legend()
@@ -281,6 +289,7 @@ def _plot_pair(out, suffix, names, f, c):
     positions = c.damage["positions"][in_zone]
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     damage_map(axes[0], positions, d_full[in_zone], f"full (seed {f.seed}): damage in the DE zone")
-    damage_map(axes[1], positions, d_coupled[in_zone], f"coupled (seed {c.seed}): damage in the DE zone")
+    damage_map(axes[1], positions, d_coupled[in_zone],
+               f"{_side({0: c})} (seed {c.seed}): damage in the DE zone")
     fig.tight_layout()
     save_figure(fig, out / f"damage_maps{suffix}.png")
