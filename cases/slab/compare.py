@@ -163,7 +163,7 @@ def compare(full, coupled, out, verdict=False):
         result["ensemble"] = _ensemble(full, coupled, names, out)
     write_json(out / "comparison.json", result)
     for seed in pairs:
-        _plot_pair(out, f"-seed-{seed}" if len(pairs) > 1 else "", names, full[seed],
+        _plot_pair(out, compare_page.pair_suffix(seed, len(pairs)), names, full[seed],
                    coupled[seed])
     compare_page.write(result, full, coupled, out)
     return result
@@ -236,7 +236,7 @@ def _ensemble(full, coupled, names, out):
     dmg = ensemble.damage(figures(full), figures(coupled))
     maps = ensemble.mean_damage_maps(_maps(full), _maps(coupled, de_zone=True), (0.0, 0.0),
                                      (2.5, 2.0), PLAN_CELL)
-    labels = ("full", _side(coupled))
+    labels = ("full", _side(coupled.values()))
     plot_histories(out / "ensemble_histories.png", z(full), z(coupled), names,
                    ylabel="z displacement (mm)", labels=labels)
     plot_mean_damage_maps(out / "ensemble_damage_maps.png", maps, len(full), len(coupled),
@@ -250,9 +250,9 @@ def _ensemble(full, coupled, names, out):
 
 
 def _side(runs):
-    """How the plots name the compared runs: "coupled", or "compared" when full runs of another
-    setting are among them."""
-    return "coupled" if all(r.model == "coupled" for r in runs.values()) else "compared"
+    """How the plots name the compared `runs`: "coupled", or "compared" when full runs of
+    another setting are among them."""
+    return "coupled" if all(r.model == "coupled" for r in runs) else "compared"
 
 
 def _maps(runs, de_zone=False):
@@ -279,7 +279,7 @@ def _plot_pair(out, suffix, names, f, c):
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True)
     for ax, i, name in zip(axes.ravel(), range(len(names)), names):
-        for label, r, style in (("full", f, "-"), (_side({0: c}), c, "--")):
+        for label, r, style in (("full", f, "-"), (_side([c]), c, "--")):
             ax.plot(r.t * 1e3, r.h[:, i, 2] * 1e3, style, label=label)
         ax.set(title=name, xlabel="time (ms)", ylabel="z displacement (mm)")
         ax.legend()
@@ -290,6 +290,6 @@ def _plot_pair(out, suffix, names, f, c):
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
     damage_map(axes[0], positions, d_full[in_zone], f"full (seed {f.seed}): damage in the DE zone")
     damage_map(axes[1], positions, d_coupled[in_zone],
-               f"{_side({0: c})} (seed {c.seed}): damage in the DE zone")
+               f"{_side([c])} (seed {c.seed}): damage in the DE zone")
     fig.tight_layout()
     save_figure(fig, out / f"damage_maps{suffix}.png")

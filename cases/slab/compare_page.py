@@ -8,6 +8,11 @@ def num(x):
     return "n/a" if x is None else float(f"{x:.4g}")
 
 
+def pair_suffix(seed, pairs):
+    """The file-name suffix of a same-seed pair's pictures (none when there is one pair)."""
+    return f"-seed-{seed}" if pairs > 1 else ""
+
+
 def verdict_cell(v):
     if v["within"]:
         return ("within" + (" (weak: 2 full runs)" if v["weak"] else "")
@@ -53,11 +58,10 @@ def write(result, full, coupled, out):
                           num(p["damage"]["damage_map_correlation_de_zone"]),
                           num(p["speedup_per_step"]), num(p["sphere_count_ratio"])]
                          for seed, p in result["pairs"].items()], "pair-figures"))
-    suffix = (lambda seed: f"-seed-{seed}") if len(result["pairs"]) > 1 else (lambda seed: "")
     for seed in result["pairs"]:
-        blocks += [picture(out / f"histories{suffix(seed)}.png", f"seed {seed}: z histories"),
-                   picture(out / f"damage_maps{suffix(seed)}.png",
-                           f"seed {seed}: damage in the DE zone")]
+        suffix = pair_suffix(seed, len(result["pairs"]))
+        blocks += [picture(out / f"histories{suffix}.png", f"seed {seed}: z histories"),
+                   picture(out / f"damage_maps{suffix}.png", f"seed {seed}: damage in the DE zone")]
     blocks.append(heading("The runs' own checks"))
     for label, runs in (("full", full), ("compared", coupled)):
         for seed, r in sorted(runs.items()):

@@ -80,7 +80,7 @@ class SlabSpec:
                               "paper's (not conservative, docs/coupling.md)")
     relaxation: object = key("auto", number_or_auto, positive, section="coupling",
                              help="relaxation r, or 'auto': the rule derived from the 1D band "
-                                  "(docs/wave1d.md; r = 74.5 at small scale); the paper's 35 "
+                                  "(docs/wave1d.md; r = 20.9 at small scale, dt 0.3); the paper's 35 "
                                   "gives the same slab within the full model's scatter "
                                   "(docs/slab.md)")
     rotations: bool = key(True, boolean, section="coupling", help="couple sphere rotations")
