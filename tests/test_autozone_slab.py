@@ -64,7 +64,9 @@ def test_the_limit_ends_the_search_and_the_fallback_runs_the_full_model(tmp_path
     low = ["--trip-stress", "0.001", "--stress-every", "100", "--zone-limit", "0.5"]
     assert main(AUTO + low + ["--out", str(tmp_path / "limit")]) == 1
     line = capsys.readouterr().out.strip().splitlines()[-1]
-    assert line.startswith("coupling cannot pay for this impact: after 1 attempts")
+    assert line.startswith("coupling cannot pay for this impact, because what the DE "
+                           "zone must hold spreads too far: after 1 attempts, the last "
+                           "tripped at step 100 by FE σ1")
     s = json.loads((tmp_path / "limit" / "summary.json").read_text())
     assert s["zone_outcome"] == "limit" and s["zone_message"] == line
     assert main(AUTO + low + ["--fallback", "full", "--out", str(tmp_path / "full")]) == 0
@@ -79,7 +81,10 @@ def test_the_budget_ends_the_search_with_its_line(tmp_path, capsys):
     args = AUTO[:-1] + ["0.01", "--trip-stress", "0.05", "--out", str(tmp_path)]
     assert main(args) == 1
     line = capsys.readouterr().out.strip().splitlines()[-1]
-    assert line.startswith("coupling cannot pay for this impact: after 1 attempts")
+    assert line.startswith("coupling cannot pay for this impact, because what the DE "
+                           "zone must hold spreads too far: after 1 attempts, the last "
+                           "tripped at step ")
+    assert " by FE σ1 " in line
     assert "would cost more than the full model (zone.cost) in another attempt" in line
     s = json.loads((tmp_path / "summary.json").read_text())
     assert (s["zone_outcome"], s["zone_limit_reached"]) == ("limit", "cost")

@@ -81,12 +81,14 @@ def over_budget(attempts, full_spheres, spec):
 
 
 def message(outcome, full_spheres, record):
+    """The search's one line: that coupling cannot pay, and because of what (the concrete the
+    DE zone must hold spreads past the zone's limit or its budget: the last trip says where)."""
     a = outcome.attempts[-1]
     why = ("would pass its limit" if outcome.limit == "cells" else
            "would cost more than the full model (zone.cost) in another attempt")
-    return (f"coupling cannot pay for this impact: after {len(outcome.attempts)} attempts the "
-            f"DE zone ({a['cells']} of {outcome.zone.size} in-plane cells, {a['spheres']} of "
-            f"the full model's {full_spheres} spheres) {why}; "
-            f"{outcome.wall_s:.3g} s spent against a projected "
+    return (f"coupling cannot pay for this impact, because what the DE zone must hold spreads "
+            f"too far: after {len(outcome.attempts)} attempts, the last tripped at step "
+            f"{a['tripped_step']} by {a['indicator']}, the DE zone ({a['cells']} of "
+            f"{outcome.zone.size} in-plane cells, {a['spheres']} of the full model's "
+            f"{full_spheres} spheres) {why}; {outcome.wall_s:.3g} s spent against a projected "
             f"{record['full_model_projected']['wall_s']:.3g} s for the full model")
-

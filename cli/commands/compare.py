@@ -42,13 +42,37 @@ def run(args):
             n = v["nrms"]
             print(f"{name:14s} coupled nRMS to the full mean {_f(n['coupled_max'])} (largest), "
                   f"full scatter {_f(n['full_leave_one_out_max'])}: "
-                  f"{'within' if n['within'] else 'OUTSIDE'}{' (weak: 2 full runs)' if n['weak'] else ''}")
+                  f"{_verdict(n)}")
         for name, v in r["ensemble"]["within_full_scatter"].get("damage", {}).items():
             print(f"{name:14s} coupled |ratio - 1| to the full mean {_f(v['coupled_max'])} "
                   f"(largest), full scatter {_f(v['full_leave_one_out_max'])}: "
-                  f"{'within' if v['within'] else 'OUTSIDE'}")
+                  f"{_verdict(v)}")
+        print(_overall(r))
     print(f"results in {out}; the page: {out / 'report.html'}")
     return 0
+
+
+def _overall(r):
+    """The comparison in one line: where the coupled runs lie outside the full scatter, or
+    that they are within it everywhere; with the per-step speed-up of the same-seed pairs."""
+    w = r["ensemble"]["within_full_scatter"]
+    verdicts = {**{k: v["nrms"] for k, v in w["sensors"].items()}, **w.get("damage", {})}
+    outside = [k for k, v in verdicts.items() if not v["within"]]
+    speed = [p["speedup_per_step"] for p in r["pairs"].values()]
+    cost = (f"; speed-up per step {min(speed):.2f}-{max(speed):.2f} (the runs' own wall "
+            f"times)" if speed else "")
+    if outside:
+        return f"verdict: OUTSIDE the full scatter on {', '.join(outside)}{cost}"
+    return f"verdict: within the full scatter on all {len(verdicts)} figures{cost}"
+
+
+def _verdict(v):
+    """within / OUTSIDE, and what weakens it: two full runs only, or a scatter so wide (or a
+    figure so null: no run damaged) that a null prediction lies within it too."""
+    notes = [n for n, on in (("weak: 2 full runs", v["weak"]),
+                             ("a null prediction is within too", v.get("null_within")))
+             if on]
+    return ("within" if v["within"] else "OUTSIDE") + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def _f(x):
