@@ -3,6 +3,8 @@
 YADE is imported from Debian's build (`/usr/lib/x86_64-linux-gnu/yade-double/py`), whose
 `dist-packages/yade` link is dangling. Knows nothing of the FE side.
 """
+import contextlib
+import io
 import os
 import sys
 
@@ -26,8 +28,9 @@ def import_yade(threads=None):
             raise ImportError(f"YADE not found at {YADE_PY}: run `make setup` (Debian package yade)")
         if YADE_PY not in sys.path:
             sys.path.insert(0, YADE_PY)
-    import yade
-    return yade
+        with contextlib.redirect_stdout(io.StringIO()):     # its banner, "Using python version"
+            import yade  # noqa: F401
+    return sys.modules["yade"]
 
 
 def cores():

@@ -294,5 +294,7 @@ def _post_run_checks(m, damage, fe_peak, info, bars=None):
             warnings.append(f"{cracked} of the {np.count_nonzero(outside)} links outside the "
                             f"coupled model's DE zone are damaged (mean ω "
                             f"{omega[outside].mean():.3f}, broken ones counting as 1): a "
-                            f"coupled model, elastic there, will be stiffer (docs/slab.md)")
+                            f"coupled model with an elastic FE there will be stiffer "
+                            f"(docs/slab.md), one with --fe-material damage can follow "
+                            f"them (docs/fe-damage.md)")
     return warnings
