@@ -128,5 +128,6 @@ def test_make_run_ends_with_pictures_or_says_how_to_install_paraview(tmp_path):
     proc = subprocess.run([shutil.which("make"), "-s", "render"], cwd=ROOT, text=True,
                           capture_output=True, env={"PATH": str(tmp_path)})
     assert proc.returncode == 0
-    assert proc.stdout == ("pictures skipped: ParaView is not installed "
-                           "(make setup-paraview installs it)\n")
+    assert proc.stdout == ("ParaView renders not made (ParaView is not installed: make "
+                           "setup-paraview); the pictures are in "
+                           "results/slab-small/10ms/compare/report.html\n")

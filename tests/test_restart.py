@@ -23,7 +23,7 @@ from yade_side.output import read_series
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "cases" / "block_impact.toml"
 SETTINGS = ["--set", "time.duration=2.4e-4", "--set", "output.every=20",
-            "--set", "output.checkpoint_every=20", "--quiet"]  # 341 steps, links break from ~260
+            "--set", "output.checkpoint_every=100", "--quiet"]  # 341 steps, links break from ~260
 
 
 def start(out):
@@ -84,7 +84,7 @@ def assert_same_results(a, b):
 def test_a_stopped_run_resumes_to_the_uninterrupted_results(reference, tmp_path, sig):
     out = tmp_path / "run"
     proc = start(out)
-    wait_for_checkpoint(out, 40, proc)
+    wait_for_checkpoint(out, 100, proc)
     proc.send_signal(sig)
     code = proc.wait(timeout=300)
     if sig == signal.SIGTERM:  # it finishes its step, writes a checkpoint and says so
@@ -100,7 +100,7 @@ def test_a_stopped_run_resumes_to_the_uninterrupted_results(reference, tmp_path,
 def test_a_mismatched_or_corrupt_checkpoint_is_refused(reference, tmp_path, capsys):
     out = tmp_path / "run"
     proc = start(out)
-    wait_for_checkpoint(out, 40, proc)
+    wait_for_checkpoint(out, 100, proc)
     proc.send_signal(signal.SIGTERM)
     assert proc.wait(timeout=300) == STOPPED
     case = out / "case.toml"
