@@ -63,4 +63,5 @@ def _pieces(bars, parts):
     t0, t1 = (np.array([p[k] for p in parts])[:, None] for k in (1, 2))
     d = bars.end[i] - bars.start[i]
     return Bars(bars.start[i] + t0 * d, bars.start[i] + t1 * d, bars.diameter[i], bars.young[i],
-                bars.yield_strength[i], bars.density[i], bars.bond_strength[i], bars.layer[i])
+                bars.yield_strength[i], bars.density[i], bars.bond_strength[i], bars.layer[i],
+                bars.hardening[i])

@@ -30,6 +30,7 @@ class Layer:
     yield_strength: float = 500e6   # Pa
     density: float = 7850.0         # kg/m³
     bond_strength: float = None     # Pa, bar–concrete shear strength (DE bond links)
+    hardening: float = 0.0          # Pa, the slope past fy (0: EN 1992-1-1's horizontal branch)
 
     def check(self, where="reinforcement"):
         """Raise ValueError naming `where`.key and the value for a bad number or choice."""
@@ -37,6 +38,10 @@ class Layer:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{where}.{name} must be a positive number, got {v!r}")
+        if not (isinstance(self.hardening, (int, float)) and math.isfinite(self.hardening)
+                and 0 <= self.hardening < self.young):
+            raise ValueError(f"{where}.hardening must be a number in [0, young) (Pa), got "
+                             f"{self.hardening!r}")
         if self.bond_strength is not None and not (
                 isinstance(self.bond_strength, (int, float)) and self.bond_strength > 0):
             raise ValueError(f"{where}.bond_strength must be a positive number (Pa), got "
@@ -75,7 +80,8 @@ def layer_from_dict(d, where="reinforcement"):
 @dataclass
 class Bars:
     """Straight bars: start, end (n, 3) points of their axes; per bar: diameter, young,
-    yield_strength, density, bond_strength (NaN: not given), layer index."""
+    yield_strength, density, bond_strength (NaN: not given), layer index, hardening (None:
+    0)."""
     start: np.ndarray
     end: np.ndarray
     diameter: np.ndarray
@@ -84,9 +90,37 @@ class Bars:
     density: np.ndarray
     bond_strength: np.ndarray
     layer: np.ndarray
+    hardening: np.ndarray = None
+
+    def __post_init__(self):
+        if self.hardening is None:
+            self.hardening = np.zeros(len(self.start))
 
     def __len__(self):
         return len(self.start)
+
+    def steel_step(self, bar, strain, plastic, accumulated):
+        """The steel's law for members of bars `bar` at total axial strains `strain`: EN
+        1992-1-1 3.2.7's bilinear curve, E up to fy, then the slope H (hardening; H = 0 the
+        horizontal branch), in tension and compression, unloading at E: one-dimensional
+        plasticity with linear isotropic hardening. The return mapping from the last state
+        (plastic strain ε_p, accumulated plastic strain α: updated in place) is exact for any
+        strain increment, so the law holds at every step whatever the step. Returns the axial
+        stresses σ and the plastic work per unit volume of this increment, ∫ σ dε_p."""
+        E, fy, H = self.young[bar], self.yield_strength[bar], self.hardening[bar]
+        trial = E * (strain - plastic)
+        excess = np.abs(trial) - (fy + H * accumulated)
+        flow = np.where(excess > 0, excess / (E + H), 0.0)
+        sign = np.sign(trial)
+        work = flow * (fy + H * (accumulated + 0.5 * flow))
+        plastic += sign * flow
+        accumulated += flow
+        return trial - sign * E * flow, work
+
+    def steel_state(self, bar, volume):
+        """The plastic state of members (chain links, truss elements) of bars `bar`, of the
+        given steel volumes (weighted: the share of the bar they carry)."""
+        return SteelState(self, np.asarray(bar, int), np.asarray(volume, float))
 
     @property
     def area(self):
@@ -103,6 +137,31 @@ class Bars:
 
     def mass(self):
         return float(np.sum(self.density * self.area * self.length))
+
+
+class SteelState:
+    """Members of bars under the steel's law: plastic strain ε_p, accumulated α and the plastic
+    work `work` (J) so far; `step(strain)` applies the law at the members' total strains and
+    returns their stresses. history() / restore_history(h): for checkpoints."""
+
+    def __init__(self, bars, bar, volume):
+        self.bars, self.bar, self.volume = bars, bar, volume
+        self.plastic = np.zeros(len(bar))
+        self.accumulated = np.zeros(len(bar))
+        self.work = 0.0
+
+    def step(self, strain):
+        stress, work = self.bars.steel_step(self.bar, strain, self.plastic, self.accumulated)
+        self.work += float(work @ self.volume)
+        return stress
+
+    def history(self):
+        return {"plastic": self.plastic, "accumulated": self.accumulated,
+                "plastic_work": np.array(self.work)}
+
+    def restore_history(self, h):
+        self.plastic[:], self.accumulated[:] = h["plastic"], h["accumulated"]
+        self.work = float(h["plastic_work"])
 
 
 def bar_layout(layers, lo, hi, where="reinforcement"):
@@ -154,7 +213,8 @@ def bar_layout(layers, lo, hi, where="reinforcement"):
     per_bar = lambda attr: np.array([np.nan if getattr(layers[i], attr) is None
                                      else getattr(layers[i], attr) for i in layer_index], float)
     return Bars(start, end, per_bar("diameter"), per_bar("young"), per_bar("yield_strength"),
-                per_bar("density"), per_bar("bond_strength"), layer_index)
+                per_bar("density"), per_bar("bond_strength"), layer_index,
+                per_bar("hardening"))
 
 
 def transformed_section(width, depth, young_concrete, bars_depth, bars_area, young_steel):

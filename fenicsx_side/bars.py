@@ -6,12 +6,13 @@ the displacement of an element node x_j is the FE field interpolated there, u(x_
 k = E A / L and axis t stores ½ k (t·(u_b − u_a))², so the bars add Pᵀ K_b P to K, with K_b the
 block-diagonal truss stiffness of the element nodes; their mass ρ A L, lumped half to each
 element node, adds Pᵀ m_b to the lumped mass (P's rows sum to 1: the total is kept exactly).
-The bars are linear elastic: `yielded` tells where |σ| passes fy, the model does not yield.
-In a weighted model (the bridging band's α H_FE) each element's stiffness and mass are × α at
+The steel yields (the bars' law, `Bars.steel_step`): each step the elements' strains ε = Δ / L
+(Δ = G u, G = B P the elongation operator) update their plastic strains ε_p, and the force
+K u, which holds k Δ, is corrected by −Gᵀ(k ε_p L): the element force is k (Δ − ε_p L). Two
+sparse mat-vecs and numpy arrays over the elements, whatever yields. Serial only, as the
+reinforced models are. In a weighted model (the bridging band's α H_FE) each element's stiffness and mass are × α at
 its midpoint: ∫ α over the element when α is linear along it (cut the bars where it is not).
 """
-import warnings
-
 import numpy as np
 import scipy.sparse as sp
 
@@ -50,6 +51,9 @@ class EmbeddedBars:
         self.P, _ = model.point_operators(self.points)
         self.stiffness = (self.P.T @ self._truss_stiffness() @ self.P).tocsr()
         self.mass = self.P.T @ self._node_masses(bars.density[self.bar])
+        self.G = (self._elongation() @ self.P).tocsr()
+        self.k = self.weight * self.young * self.area / self.length
+        self.steel = bars.steel_state(self.bar, self.weight * self.area * self.length)
 
     def _truss_stiffness(self):
         """K_b over the element nodes' dofs (3m square): k t tᵀ [[1, −1], [−1, 1]] per element."""
@@ -66,6 +70,14 @@ class EmbeddedBars:
         return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                              shape=(n, n))
 
+    def _elongation(self):
+        """B (e, 3m): Δ = t·(u_b − u_a) per element from the element nodes' displacements."""
+        e = len(self.elements)
+        rows = np.repeat(np.arange(e), 6)
+        cols = (3 * self.elements[:, [0, 0, 0, 1, 1, 1]] + np.tile(np.arange(3), 2)).ravel()
+        vals = np.hstack([-self.axis, self.axis]).ravel()
+        return sp.csr_matrix((vals, (rows, cols)), shape=(e, 3 * len(self.points)))
+
     def _node_masses(self, density):
         """m_b (3m,): half of each element's ρ A L at each of its nodes, on the 3 components."""
         m = np.zeros(len(self.points))
@@ -75,28 +87,35 @@ class EmbeddedBars:
         return np.repeat(m, 3)
 
     def add_to(self, model):
-        model.add_stiffness_and_mass(self.stiffness, self.mass)
+        model.add_stiffness_and_mass(self.stiffness, self.mass, member=self)
+
+    # --- the steel's plasticity (a member of the FE model: fenicsx_side.model) --------------
+    def update(self, u_global):
+        """The law at the displacement u_global (global dofs)."""
+        self.steel.step((self.G @ u_global) / self.length)
+
+    def add_force(self, force):
+        """force += the correction of K u for the plastic strains (global dofs, serial)."""
+        if self.steel.plastic.any():
+            force -= self.G.T @ (self.k * self.steel.plastic * self.length)
+
+    def energy_correction(self, u_global):
+        """½ Σ k (Δ − Δ_p)² − ½ Σ k Δ², what ½ u·K u misses of the bars' elastic energy."""
+        if not self.steel.plastic.any():
+            return 0.0
+        dp = self.steel.plastic * self.length
+        return float(np.sum(self.k * dp * (0.5 * dp - self.G @ u_global)))
+
+    def history(self):
+        return self.steel.history()
+
+    def restore_history(self, h):
+        self.steel.restore_history(h)
+
+    def stress(self, u_global):
+        """σ = E (ε − ε_p) per element (tension > 0): the whole bar's, at u_global."""
+        return self.young * ((self.G @ u_global) / self.length - self.steel.plastic)
 
     def axial_force(self, u_global):
-        """N = k t·(u_b − u_a) per element (tension > 0), u_global the FE displacement over
-        global dofs."""
-        u = (self.P @ u_global).reshape(-1, 3)
-        du = u[self.elements[:, 1]] - u[self.elements[:, 0]]
-        return self.young * self.area / self.length * np.einsum("ei,ei->e", self.axis, du)
-
-    def yield_ratio(self, u_global):
-        """|σ| / fy per element (σ = N/A of the whole bar: the weight shares energy, not
-        stress)."""
-        return np.abs(self.axial_force(u_global)) / (self.area * self.yield_strength)
-
-    def yielded(self, u_global, warn=True):
-        """Elements whose |σ| = |N|/A exceeds fy (the model stays elastic there); warns."""
-        stress = self.axial_force(u_global) / self.area
-        over = np.flatnonzero(np.abs(stress) > self.yield_strength)
-        if warn and over.size:
-            worst = over[np.argmax(np.abs(stress[over]) / self.yield_strength[over])]
-            warnings.warn(f"FE bars: {over.size} of {len(stress)} elements past the yield "
-                          f"strength (worst {stress[worst] / 1e6:.0f} MPa, fy "
-                          f"{self.yield_strength[worst] / 1e6:.0f} MPa, bar {self.bar[worst]}): "
-                          f"the bars are elastic, their forces there are overestimated")
-        return over
+        """N = A σ per element (the whole bar's: the weight shares energy, not force)."""
+        return self.area * self.stress(u_global)

@@ -140,12 +140,16 @@ class DamageModel(ElasticModel):
         """The damage of u(t), then one central-difference step with the damaged force."""
         eps = self.cell_strain()
         self.update_damage(eps)
-        self._advance(self.internal_force(eps), dt)
+        force = self.internal_force(eps)
+        self._members_force(force)
+        self._advance(force, dt)
 
     def strain_energy(self, weights=None):
-        """½ Σ w u·f(u), f the damaged internal force; weights per dof (default 1)."""
+        """½ Σ w u·f(u), f the damaged internal force; weights per dof (default 1); and the
+        members' part."""
         w = 1.0 if weights is None else weights
-        return 0.5 * float(np.sum(w * self._u * self.internal_force()))
+        return 0.5 * float(np.sum(w * self._u * self.internal_force())) + \
+            self._members_energy()
 
     def stress(self):
         """The elastic cell stresses times (1 − D)."""
@@ -159,8 +163,9 @@ class DamageModel(ElasticModel):
     # --- history, for checkpoints -----------------------------------------------------------
     def history(self):
         return {"kappa": self.kappa, "eps_f": self.eps_f, "damage": self.damage,
-                "dissipated": np.array(self.dissipated)}
+                "dissipated": np.array(self.dissipated), **super().history()}
 
     def restore_history(self, h):
         self.kappa[:], self.eps_f[:], self.damage[:] = h["kappa"], h["eps_f"], h["damage"]
         self.dissipated = float(h["dissipated"])
+        super().restore_history(h)

@@ -115,6 +115,8 @@ class ElasticModel:
         self.t = 0.0
         self._tree = None
         self._stress_op = None
+        # members with a state of their own beyond K (fenicsx_side.bars: yielding steel)
+        self.members = []
 
     # --- state -------------------------------------------------------------------------------
     @property
@@ -140,10 +142,17 @@ class ElasticModel:
             raise ValueError(f"{name}[{bad[0]}] = {value[bad[0]]!r} but that dof is fixed (zero)")
         return value
 
-    def add_stiffness_and_mass(self, stiffness, mass):
+    def add_stiffness_and_mass(self, stiffness, mass, member=None):
         """Add members that the mesh does not conform to (fenicsx_side.bars): `stiffness`, a
         sparse (ndof_global, ndof_global) matrix over global dofs, to K, and `mass`
-        (ndof_global,) to the lumped mass. Each rank adds its owned rows."""
+        (ndof_global,) to the lumped mass. Each rank adds its owned rows. A `member` with a
+        state of its own corrects the force K u each step (serial only): update(u),
+        add_force(force), energy_correction(u), history(), restore_history(h)."""
+        if member is not None:
+            if self.comm.size > 1:
+                raise ValueError("FE members with a state of their own (yielding bars) run "
+                                 "on one rank")
+            self.members.append(member)
         add = sp.csr_matrix(stiffness)[self.global_dofs]
         self.K = (self.K + add).tocsr()
         self.K.sort_indices()
@@ -160,7 +169,14 @@ class ElasticModel:
     def predict(self, dt):
         """One central-difference step without coupling: v += dt M⁻¹(f_ext − K u); u += dt v."""
         self._K_petsc.mult(self._u_vec, self._work_vec)
+        self._members_force(self._work)
         self._advance(self._work, dt)
+
+    def _members_force(self, force):
+        """The members' state at u, then their corrections of the internal force."""
+        for member in self.members:
+            member.update(self._u)
+            member.add_force(force)
 
     def _advance(self, force, dt):
         """v += dt M⁻¹(f_ext − force); u += dt v (force, the internal force, is overwritten)."""
@@ -211,17 +227,27 @@ class ElasticModel:
         w = 1.0 if weights is None else weights
         Ku = self._K_petsc.createVecLeft()
         self._K_petsc.mult(self._u_vec, Ku)
-        return self.comm.allreduce(0.5 * float(np.sum(w * self._u * Ku.array)))
+        return self.comm.allreduce(0.5 * float(np.sum(w * self._u * Ku.array))) + \
+            self._members_energy()
 
-    # --- history, for checkpoints: none (fenicsx_side.damaged has some) ---------------------
+    def _members_energy(self):
+        """What the members' state takes from ½ u·K u (their own energy, unweighted)."""
+        return sum(m.energy_correction(self._u) for m in self.members)
+
+    # --- history, for checkpoints (fenicsx_side.damaged adds its own) -----------------------
     carries_damage = False
 
     def history(self):
         """Arrays beyond u, v and t that the state needs (a name → array mapping)."""
-        return {}
+        return {f"member{i}_{k}": v for i, m in enumerate(self.members)
+                for k, v in m.history().items()}
 
     def restore_history(self, history):
         """Set what history() gave."""
+        for i, m in enumerate(self.members):
+            prefix = f"member{i}_"
+            m.restore_history({k[len(prefix):]: v for k, v in history.items()
+                               if k.startswith(prefix)})
 
     # --- coupling operators -----------------------------------------------------------------
     def locate(self, points):

@@ -88,6 +88,7 @@ class Parts:
     inside_step: bool          # the coupling runs inside O.step (after the integrator)
     links_pending: bool        # the first step makes the cohesive links
     consistent: bool
+    bars: object = None        # the DE members of the description (contracts.DEBars), or None
 
 
 def assemble(d):
@@ -133,7 +134,7 @@ def assemble(d):
         stepper = CoupledStepper(O.step, bridge, fe, coupling)
         inside = d.scene.attach(stepper.couple)
     return Parts(O, ids, fe, d.bridging, beta, index[index < len(ids)], bar_ids, stepper, dt,
-                 critical, relaxation, notes, inside, not links, consistent)
+                 critical, relaxation, notes, inside, not links, consistent, d.bars)
 
 
 class Model:
@@ -177,6 +178,16 @@ class Model:
                 weight_links(p.ids, p.beta)
             self.damage.record_initial()
             p.links_pending = False
+        if p.bars is not None:
+            p.bars.step()
+
+    def de_history(self):
+        """Arrays of the DE members' own state (the bars' plasticity), for checkpoints."""
+        return {} if self.parts.bars is None else self.parts.bars.history()
+
+    def restore_de_history(self, history):
+        if self.parts.bars is not None:
+            self.parts.bars.restore_history(history)
 
     def swap_coupling(self, coupling):
         """Go on with another coupling of the same spheres (e.g. another variant); the time

@@ -75,6 +75,14 @@ class DEBars(Protocol):
     def start(self) -> None:
         """Called once the scene's engines and cohesive links exist (before the weighting)."""
 
+    def step(self) -> None:
+        """Called after every step of the model (their own law: the steel's plasticity)."""
+
+    def history(self) -> dict:
+        """Arrays of their state beyond the YADE scene, for checkpoints."""
+
+    def restore_history(self, history: dict) -> None: ...
+
 
 class RunModel(Protocol):
     """A model, as the run loop sees it (orchestrator.builder.Model)."""
@@ -94,3 +102,5 @@ class RunModel(Protocol):
     def sensor_displacements(self) -> np.ndarray: ...
     def energy(self) -> float: ...
     def sphere_count(self) -> int: ...
+    def de_history(self) -> dict: ...
+    def restore_de_history(self, history: dict) -> None: ...

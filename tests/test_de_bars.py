@@ -58,14 +58,6 @@ def test_bar_alone_in_tension_gives_ea_over_l():
     assert force / elongation == pytest.approx(E_S * A_S / 0.3, rel=1e-9)
 
 
-def test_steel_past_yield_warns():
-    chain, _, _ = stretched_chain(3e-3)                # 600 MPa > 500 MPa
-    with pytest.warns(UserWarning, match="past the yield strength"):
-        over, ratio = chain.check_yield()
-        assert len(over) == len(chain.links) and ratio == pytest.approx(1.2, rel=1e-9)
-    assert chain.steel_stress() == pytest.approx(E_S * 3e-3, rel=1e-9)
-
-
 def test_bars_do_not_shrink_the_p_wave_time_step():
     """The steel spheres' mass is scaled so that PWaveTimeStep is the concrete's; unscaled (the
     steel's own mass), the bar would have shrunk it."""

@@ -95,15 +95,6 @@ def test_bars_add_their_mass_exactly(mesh_name):
     assert np.all(model.mass >= before)
 
 
-def test_yield_is_reported():
-    model = ElasticModel(box_mesh(P0, P1, (6, 5, 2)), E, NU, RHO)
-    fe = EmbeddedBars(model, oblique_bars(), element_length=0.05)
-    u = linear_field(model, np.eye(3) * 3e-3)      # σ = 200 GPa × 3e-3 = 600 MPa > 500 MPa
-    with pytest.warns(UserWarning, match="past the yield strength"):
-        assert len(fe.yielded(u)) == len(fe.length)
-    assert len(fe.yielded(u / 2, warn=False)) == 0
-
-
 def three_point_bending_deflection(bars_layer, n=(112, 2, 8), span=2.8, width=0.2, depth=0.28,
                                    load=1e5):
     """Static mid-span deflection (bottom face) of a simply supported strip, line supports

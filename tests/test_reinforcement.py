@@ -43,6 +43,8 @@ def test_top_layer_is_measured_from_the_top_face():
     (dict(direction="z"), r"reinforcement\[0\]\.direction must be one of \('x', 'y'\), got 'z'"),
     (dict(diameter=-0.01), r"reinforcement\[0\]\.diameter must be a positive number, got -0\.01"),
     (dict(face="side"), r"reinforcement\[0\]\.face must be one of"),
+    (dict(hardening=-1e9), r"reinforcement\[0\]\.hardening must be a number in \[0, young\) "
+                           r"\(Pa\), got -1000000000\.0"),
 ])
 def test_bad_layers_are_refused_in_one_line(change, message):
     layer = dict(diameter=0.012, spacing=0.15, direction="x", cover=0.036) | change

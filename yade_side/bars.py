@@ -3,10 +3,14 @@ the concrete spheres by CPM links that carry the bond's strength.
 
 Debian's YADE 2023.02a links CpmMat spheres only to CpmMat spheres by a cohesive law (CpmMat with
 another material gets a frictional contact only), so the steel is a CpmMat too, with
-neverDamage: its links are linear elastic in tension and compression, never yield, harden or
-break, and have no bending or twisting stiffness (CPM has no contact moments: the chain carries
-axial force only, like the FE side's truss, no dowel action). `SteelChains.check_yield` warns
-when a link's stress passes fy.
+neverDamage: its links never break and have no bending or twisting stiffness (CPM has no
+contact moments: the chain carries axial force only, like the FE side's truss, no dowel
+action). They yield by the bars' law (`Bars.steel_step`): CPM's normal strain of a link is
+ε_N = (d − d0 + refPD − refPD0) / L0 (d the centres' distance, 0 when it was made), so the
+plastic strain ε_p of a link is refPD = refPD0 − ε_p L0. `SteelChains.plastic_step`, after
+every step, reads the chain spheres' positions in bulk, maps the links' strains back onto
+the law and writes refPD of the links whose plastic strain changed: the next step's forces
+are the law's at those positions.
 
 - Steel links: spheres of radius r on each bar axis, `spacing` ≈ 2 r apart (1.5 r < s < 3 r:
   neighbours linked, next neighbours not). CPM's link stiffness is young π r² / s, so
@@ -27,7 +31,6 @@ when a link's stress passes fy.
   at F (tension): in a random packing they add an interlock term that grows with the slip.
 """
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,6 +110,48 @@ class SteelChains:
             for c, b in zip(centres, self.bar)]), dtype=int)
         self.links = [(int(self.ids[j]), int(self.ids[j + 1]), int(self.bar[j]))
                       for j in range(len(self.ids) - 1) if self.bar[j] == self.bar[j + 1]]
+        self._ends = np.array([(j, j + 1) for j in range(len(self.ids) - 1)
+                               if self.bar[j] == self.bar[j + 1]], int).reshape(-1, 2)
+        self.link_bar = np.array([bar for _, _, bar in self.links], int)
+        self.steel = None           # the links' plastic state, once they exist
+
+    def start_plasticity(self, weight=None):
+        """Read each chain link's reference (set-up only: the links must exist). Where it was
+        made, the link's centres were d0 = 2 r − refPD0 apart (ScGeom's penetration depth).
+        `weight`: each link's share of its bar (β), for the plastic work (default 1)."""
+        from yade_side.bulk import BodySet
+        O = import_yade().Omega()
+        phys = [O.interactions[a, b].phys for a, b, _ in self.links]
+        self._ref_pd = np.array([p.refPD for p in phys])
+        self._ref_length = np.array([p.refLength for p in phys])
+        self._ref_distance = 2 * self.radius - self._ref_pd
+        self._spheres = BodySet(self.ids)
+        share = np.ones(len(self.links)) if weight is None else np.asarray(weight, float)
+        self.steel = self.bars.steel_state(
+            self.link_bar, share * self.bars.area[self.link_bar] * self._ref_length)
+
+    def strain(self):
+        """The chain links' total axial strains (d − d0) / L0 now."""
+        pos = self._spheres.read()[:, :3]
+        d = np.linalg.norm(pos[self._ends[:, 1]] - pos[self._ends[:, 0]], axis=1)
+        return (d - self._ref_distance) / self._ref_length
+
+    def plastic_step(self):
+        """The law at the links' strains now (call after each step); returns the number of
+        links whose plastic strain changed."""
+        before = self.steel.plastic.copy()
+        self.steel.step(self.strain())
+        changed = np.flatnonzero(self.steel.plastic != before)
+        if changed.size:
+            self._write_reference(changed)
+        return changed.size
+
+    def _write_reference(self, links):
+        O = import_yade().Omega()
+        ref = self._ref_pd - self.steel.plastic * self._ref_length
+        for k in links.tolist():            # the links that yielded in this step only
+            a, b, _ = self.links[k]
+            O.interactions[a, b].phys.refPD = float(ref[k])
 
     def bond_links(self):
         """Give every steel–concrete link the bond law (see the module's docstring); returns the
@@ -146,8 +191,9 @@ class SteelChains:
         return count
 
     def steel_stress(self):
-        """Axial stress Fn / A_s (Pa, tension > 0 as CPM's Fn) of every chain link, 0 where a
-        link is gone. A loop over the chains' links: call it every few hundred steps."""
+        """Axial stress Fn / A_s (Pa, tension > 0 as CPM's Fn) of every chain link as YADE
+        computed it (a weighted link's is its share β of the bar's), 0 where a link is gone.
+        A loop over the chains' links: for checks, not for the time loop."""
         O = import_yade().Omega()
         area = self.bars.area
         out = np.empty(len(self.links))
@@ -155,21 +201,6 @@ class SteelChains:
             I = O.interactions[a, b]
             out[k] = I.phys.Fn / area[bar] if I.isReal else 0.0
         return out
-
-    def check_yield(self, warn=True):
-        """Indices of chain links whose |σ| exceeds fy (the steel law stays elastic); warns.
-        Returns (those indices, |σ| / fy of every link)."""
-        stress = self.steel_stress()
-        fy = self.bars.yield_strength[[bar for _, _, bar in self.links]]
-        ratio = np.abs(stress) / fy
-        over = np.flatnonzero(ratio > 1.0)
-        if warn and over.size:
-            worst = over[np.argmax(np.abs(stress[over]) / fy[over])]
-            warnings.warn(f"DE bars: {over.size} of {len(stress)} steel links past the yield "
-                          f"strength (worst {stress[worst] / 1e6:.0f} MPa, fy "
-                          f"{fy[worst] / 1e6:.0f} MPa, bar {self.links[worst][2]}): the steel "
-                          f"law is elastic, these forces are overestimated")
-        return over, ratio
 
 
 def shield_bars(concrete_ids, other_ids):

@@ -182,7 +182,7 @@ class SlabModel(Model):
             from cases.slab.reinforced import YieldWatch
             from yade_side.bulk import BodySet
             self.energy_bodies.append(BodySet(self.bar_ids))
-            self.yield_watch = YieldWatch(self.de_bars, scene.fe_bars, self.fe)
+            self.yield_watch = YieldWatch(self.de_bars, scene.fe_bars)
         self._sensors()
         self.build_s = perf_counter() - t0
 

@@ -33,7 +33,8 @@ DEFAULT_MESH = tuple(
 # 6.1.1): τ_max = 2.5 √fck (MPa), reached at a slip s1 = 1 mm; fck = fcm − 8 MPa.
 BOND_PEAK_SLIP = 1e-3               # m
 FCK_MARGIN = 8e6                    # Pa, fcm − fck
-YIELD_EVERY = 100                   # steps between the bars' yield checks
+YIELD_EVERY = 100                   # steps between the bars' yield records
+ULTIMATE_STRAIN = 0.05              # εuk of class B steel (EN 1992-1-1 Annex C): ≥ 5 %
 
 
 def layers(spec):
@@ -97,6 +98,18 @@ class DEBars:
 
     def start(self):
         self.bond_count = self.chains.bond_links()
+        self.chains.start_plasticity(self.link_weights())
+
+    def step(self):
+        """The steel's law at the chains' strains after a step."""
+        self.chains.plastic_step()
+
+    def history(self):
+        """The links' plastic state (their refPD comes back with the YADE scene)."""
+        return self.chains.steel.history()
+
+    def restore_history(self, history):
+        self.chains.steel.restore_history(history)
 
     def link_weights(self):
         """The weight of every chain link (the mean β of its spheres, as weight_links gives
@@ -118,36 +131,38 @@ def fe_bars(model, bars, element_length, weight):
 
 
 class YieldWatch:
-    """Every YIELD_EVERY steps, the largest |σ| / fy of the DE chains (a link's force over its
-    weight: the whole bar's stress) and of the FE trusses; warnings() at the end."""
+    """Every YIELD_EVERY steps, the largest plastic strain |ε_p| of the DE chains and of the FE
+    trusses, and when they first yielded; warnings() at the end: bars past the steel's
+    ultimate strain, which the law does not break at."""
 
-    def __init__(self, de, fe_bars, fe):
-        self.de, self.fe_bars, self.fe = de, fe_bars, fe
-        self.weights = None if de is None else de.link_weights()
+    def __init__(self, de, fe_bars):
+        self.de, self.fe_bars = de, fe_bars
         self.worst = {"de": 0.0, "fe": 0.0}
         self.first = {}
         self.checks = 0
 
     def check(self, t):
-        ratios = {}
-        if self.de is not None:
-            _, r = self.de.chains.check_yield(warn=False)
-            ratios["de"] = float(np.max(r / self.weights, initial=0.0))
-        if self.fe_bars is not None:
-            ratios["fe"] = float(np.max(self.fe_bars.yield_ratio(self.fe.u), initial=0.0))
-        for side, r in ratios.items():
-            self.worst[side] = max(self.worst[side], r)
-            if r > 1.0 and side not in self.first:
+        for side, steel in self._steel().items():
+            eps = float(np.abs(steel.plastic).max(initial=0.0))
+            self.worst[side] = max(self.worst[side], eps)
+            if eps > 0 and side not in self.first:
                 self.first[side] = t
         self.checks += 1
 
     def warnings(self):
         names = {"de": "DE steel chains", "fe": "FE embedded bars"}
-        return [f"{names[side]}: bar stress passed fy (max |σ|/fy {self.worst[side]:.3g} over "
-                f"{self.checks} checks every {YIELD_EVERY} steps, first at t = "
-                f"{1e3 * self.first[side]:.3g} ms): the steel is elastic, its forces there "
-                f"are overestimated" for side in ("de", "fe") if side in self.first]
+        return [f"{names[side]}: plastic strain {self.worst[side]:.3g} past the steel's "
+                f"ultimate strain {ULTIMATE_STRAIN:g} (EN 1992-1-1 Annex C, class B): the bars "
+                f"would break there, the law does not" for side in ("de", "fe")
+                if self.worst[side] > ULTIMATE_STRAIN]
+
+    def _steel(self):
+        """{side: its bars' plastic state} of the sides that have bars."""
+        sides = {"de": None if self.de is None else self.de.chains.steel,
+                 "fe": None if self.fe_bars is None else self.fe_bars.steel}
+        return {side: steel for side, steel in sides.items() if steel is not None}
 
     def figures(self):
-        return {"max_stress_over_fy": dict(self.worst), "yield_checks": self.checks,
-                "check_every": YIELD_EVERY}
+        return {"max_plastic_strain": dict(self.worst), "first_yield_s": dict(self.first),
+                "plastic_work_J": {side: s.work for side, s in self._steel().items()},
+                "yield_checks": self.checks, "check_every": YIELD_EVERY}

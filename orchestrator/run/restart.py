@@ -74,6 +74,7 @@ def save(out, record, model, meta, seconds):
     if model.fe is not None:
         state.update(fe_u=model.fe.u, fe_v=model.fe.v, fe_t=model.fe.t,
                      **{f"fe_history_{k}": v for k, v in model.fe.history().items()})
+    state.update({f"de_history_{k}": v for k, v in model.de_history().items()})
     stepper = model.stepper
     if stepper is not None:
         state.update(rotation=stepper.bridge.rotation, rotation_pred=stepper.bridge.rotation_pred,
@@ -137,6 +138,7 @@ def load(out, model, meta):
     needed += (["fe_u", "fe_v", "fe_t"] + [f"fe_history_{k}" for k in model.fe.history()]
                if model.fe is not None else [])
     needed += ["rotation", "rotation_pred"] if model.stepper is not None else []
+    needed += [f"de_history_{k}" for k in model.de_history()]
     missing = [k for k in needed if k not in state]
     if missing == ["fe_peak"]:
         raise ValueError(f"{folder / 'state.npz'}: a checkpoint of an earlier version, which did "
@@ -148,6 +150,7 @@ def load(out, model, meta):
     if model.fe is not None:
         model.fe.u, model.fe.v, model.fe.t = state["fe_u"], state["fe_v"], float(state["fe_t"])
         model.fe.restore_history({k: state[f"fe_history_{k}"] for k in model.fe.history()})
+    model.restore_de_history({k: state[f"de_history_{k}"] for k in model.de_history()})
     stepper = model.stepper
     if stepper is not None:
         stepper.bridge.rotation[:] = state["rotation"]
