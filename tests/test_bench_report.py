@@ -53,6 +53,24 @@ def test_derived_figures_and_goal_verdicts():
     assert verdicts == [False, True, False, False, True, False]
 
 
+def test_the_fe_with_damage_is_judged_in_the_impact_window():
+    """The FE with damage: 0.02 s of a 0.30 s step in the impact window (6.7 %, under 10 %),
+    whatever its share right after the build."""
+    r = raw(coupled_peak_gb=0.5)
+    damage = worker_output(20_000, 8_000, yade=0.20, fe=0.05, coupling=0.03)
+    damage["timing_impact"] = {"median_s": 0.30, "split_median_s": {
+        "yade": 0.25, "fe": 0.02, "coupling": 0.03, "output": 0.0}}
+    r["scales"]["paper"]["coupled_damage"] = damage
+    d = derive(r)
+    assert d["per_scale"]["paper"]["fe_damage_fraction"] == pytest.approx(0.02 / 0.30)
+    goal = d["goals"][4]
+    assert goal["goal"].startswith("FE with damage < 10% of the coupled step") and goal["met"]
+    table = markdown(dict(d, raw=r, mode="full", date_utc="today", bench_wall_s=60.0,
+                          machine_at_start={"cpus": 2, "load_average": (0.1, 0, 0)},
+                          machine_at_end={"load_average": (0.2, 0, 0)}))
+    assert "| paper | coupled, FE damage | 20,000 | 8,000 |" in table
+
+
 def test_goals_without_paper_scale_are_labelled_and_memory_not_judged():
     r = raw(coupled_peak_gb=0.5)
     r["scales"]["medium"] = r["scales"].pop("paper")
