@@ -1,8 +1,10 @@
 """The link-making step: exactly the pairs within the link reach become links, and the
-candidate pairs are those of the 1.5 × bounds alone (no Verlet enlargement on that step)."""
+candidate pairs are those of the 1.5 × bounds alone (no Verlet enlargement on that step); the
+consistent weighting of links and of the contacts made later."""
 import itertools
 
 import numpy as np
+import pytest
 
 from yade_side import import_yade
 from yade_side.scene import INTERACTION_RADIUS, cpm_engines, create_cohesive_links, reset_scene
@@ -40,3 +42,35 @@ def test_links_and_candidates_of_a_lattice():
     assert collider.verletDist == verlet
     O.step()  # the collider with its Verlet distance and 1 × bounds; links stay
     assert O.interactions.countReal() == 780
+
+
+def test_weighted_spheres_weight_their_links_and_later_contacts_by_the_mean_beta():
+    """The consistent weighting (yade_side.weighting): a link that exists when the weights are
+    set, and a contact that closes later, both get the stiffness × the mean β of their two
+    spheres, once; an unweighted pair keeps its own. Three pairs along x: linked (β 0.2, 0.6),
+    apart then pushed into contact (β 0.2, 0.6), apart then pushed (β 1)."""
+    from yade import utils
+    from yade_side.weighting import weight_links, weight_masses
+    reset_scene()
+    mat = O.materials.append(yade.wrapper.CpmMat(young=30e9, poisson=0.2, frictionAngle=0.67,
+                                                 sigmaT=3e6, epsCrackOnset=1e-4,
+                                                 relDuctility=30, density=4000))
+    centres = [(0, 0, 0), (1.9 * R, 0, 0), (0, 1, 0), (4 * R, 1, 0), (0, 2, 0), (4 * R, 2, 0)]
+    ids = np.array(O.bodies.append([utils.sphere(c, R, material=mat) for c in centres]))
+    cpm_engines(dt=1e-8)
+    create_cohesive_links()
+    link_kn = O.interactions[0, 1].phys.kn
+    beta = np.array([0.2, 0.6, 0.2, 0.6, 1.0, 1.0])
+    weight_masses(ids, beta)
+    weight_links(ids, beta)
+    assert O.interactions[0, 1].phys.kn == link_kn * 0.4
+    for i in (3, 5):                            # into contact, as the link's pair
+        O.bodies[i].state.pos = (1.9 * R, centres[i][1], 0)
+    for b in O.bodies:
+        b.state.blockedDOFs = "xyzXYZ"
+    O.step()
+    O.step()
+    weighted, plain = O.interactions[2, 3].phys, O.interactions[4, 5].phys
+    assert not weighted.isCohesive and not plain.isCohesive
+    assert weighted.kn == pytest.approx(plain.kn * 0.4, rel=1e-15)
+    assert O.interactions[0, 1].phys.kn == link_kn * 0.4

@@ -2,8 +2,9 @@
 weighting): instead of weighting nodal forces, the weighted energy β H_DE is what YADE
 integrates: masses and inertias × β, and every link between two weighted spheres (its
 cross-section and stiffnesses) × the mean β of the two. CPM's forces are stresses ×
-cross-section: the forces are weighted, the stresses and hence the damage are not. Knows
-nothing of the FE side: β comes from the caller."""
+cross-section: the forces are weighted, the stresses and hence the damage are not. Contacts
+made later (a link broken and closed again, fragments meeting) are weighted alike, through
+the spheres' materials. Knows nothing of the FE side: β comes from the caller."""
 import numpy as np
 
 from yade_side import import_yade
@@ -19,8 +20,8 @@ def weight_masses(ids, beta):
 
 def weight_links(ids, beta):
     """Cross-section and stiffnesses of every link between two of the spheres `ids` × the
-    mean β of the two. Call once, when the cohesive links exist; contacts made later are
-    not weighted."""
+    mean β of the two, and the contacts made later alike (weight_contacts). Call once,
+    when the cohesive links exist."""
     O = import_yade().Omega()
     ids = np.asarray(ids, int)
     index = np.full(ids.max() + 1, -1)
@@ -32,3 +33,21 @@ def weight_links(ids, beta):
         if w < 1.0:
             p = i.phys
             p.crossSection, p.kn, p.ks = w * p.crossSection, w * p.kn, w * p.ks
+    weight_contacts(ids, beta)
+
+
+def weight_contacts(ids, beta):
+    """The contacts made from now on weighted like the links: each sphere `ids[j]` with
+    beta[j] < 1 gets its own copy of its material with young × beta[j]; YADE's Ip2 functor
+    takes the mean of the two materials' young, so a new contact's stiffness is × the mean β
+    of its spheres. After the links exist (weight_links calls it): a material read when the
+    links are made would weight them twice. Unweighted, a contact closing on a band sphere of
+    mass β m had 1/√β times its frequency: the step's margin gone at small β (a medium slab at
+    40 m/s blew up so at 0.3 × the critical step, a broken band link closing again)."""
+    yade = import_yade()
+    O = yade.Omega()
+    for j in np.flatnonzero(np.asarray(beta) < 1.0):   # set-up only
+        body = O.bodies[int(ids[j])]
+        values = {k: v for k, v in body.material.dict().items() if k not in ("id", "label")}
+        values["young"] *= float(beta[j])
+        body.material = O.materials[O.materials.append(type(body.material)(**values))]
