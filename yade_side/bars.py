@@ -108,11 +108,10 @@ class SteelChains:
         self.ids = np.asarray(O.bodies.append([
             utils.sphere(tuple(c), self.radius, material=materials[b])
             for c, b in zip(centres, self.bar)]), dtype=int)
-        self.links = [(int(self.ids[j]), int(self.ids[j + 1]), int(self.bar[j]))
-                      for j in range(len(self.ids) - 1) if self.bar[j] == self.bar[j + 1]]
-        self._ends = np.array([(j, j + 1) for j in range(len(self.ids) - 1)
-                               if self.bar[j] == self.bar[j + 1]], int).reshape(-1, 2)
-        self.link_bar = np.array([bar for _, _, bar in self.links], int)
+        ends = [(j, j + 1) for j in range(len(self.ids) - 1) if self.bar[j] == self.bar[j + 1]]
+        self._ends = np.array(ends, int).reshape(-1, 2)
+        self.links = [(int(self.ids[a]), int(self.ids[b]), int(self.bar[a])) for a, b in ends]
+        self.link_bar = self.bar[self._ends[:, 0]]
         self.steel = None           # the links' plastic state, once they exist
 
     def start_plasticity(self, weight=None):
