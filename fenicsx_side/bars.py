@@ -3,15 +3,16 @@
 Each bar (cases.reinforcement.Bars) is cut into truss elements of at most `element_length`;
 the displacement of an element node x_j is the FE field interpolated there, u(x_j) = P u
 (P: the k operator of ElasticModel.point_operators). An element a–b of axial stiffness
-k = E A / L and axis t stores ½ k (t·(u_b − u_a))², so the bars add Pᵀ K_b P to K, with K_b the
-block-diagonal truss stiffness of the element nodes; their mass ρ A L, lumped half to each
-element node, adds Pᵀ m_b to the lumped mass (P's rows sum to 1: the total is kept exactly).
-The steel yields (the bars' law, `Bars.steel_step`): each step the elements' strains ε = Δ / L
-(Δ = G u, G = B P the elongation operator) update their plastic strains ε_p, and the force
-K u, which holds k Δ, is corrected by −Gᵀ(k ε_p L): the element force is k (Δ − ε_p L). Two
-sparse mat-vecs and numpy arrays over the elements, whatever yields. Serial only, as the
-reinforced models are. In a weighted model (the bridging band's α H_FE) each element's stiffness and mass are × α at
-its midpoint: ∫ α over the element when α is linear along it (cut the bars where it is not).
+k = E A / L and axis t stores ½ k Δ², Δ = t·(u_b − u_a) its elongation: with Δ = G u
+(G = B P, B the elongation operator of the element nodes) the bars add Gᵀ diag(k) G to K;
+their mass ρ A L, lumped half to each element node, adds Pᵀ m_b to the lumped mass (P's
+rows sum to 1: the total is kept exactly). The steel yields (the bars' law,
+`Bars.steel_step`): each step the elements' strains ε = Δ / L update their plastic strains
+ε_p, and the force K u, which holds k Δ, is corrected by −Gᵀ(k ε_p L): the element force is
+k (Δ − ε_p L). Two sparse mat-vecs and numpy arrays over the elements, whatever yields.
+Serial only, as the reinforced models are. In a weighted model (the bridging band's α H_FE)
+each element's stiffness and mass are × α at its midpoint: ∫ α over the element when α is
+linear along it (cut the bars where it is not).
 """
 import numpy as np
 import scipy.sparse as sp
@@ -20,9 +21,10 @@ import scipy.sparse as sp
 class EmbeddedBars:
     """Truss elements of `bars` in `model` (not yet added: call add_to(model)).
     Attributes: points (m, 3) element nodes; elements (e, 2) node indices; axis (e, 3);
-    length, area, young, yield_strength (e,); bar (e,) bar index; P (3m, ndof_global);
-    stiffness (ndof_global, ndof_global) = Pᵀ K_b P; mass (ndof_global,) = Pᵀ m_b;
-    weight (e,) α at the element midpoints (`weight(points)`, None: 1)."""
+    length, area, young (e,); bar (e,) bar index; P (3m, ndof_global);
+    stiffness (ndof_global, ndof_global) = Gᵀ diag(k) G; mass (ndof_global,) = Pᵀ m_b;
+    weight (e,) α at the element midpoints (`weight(points)`, None: 1); G (e, ndof_global)
+    elongations; k (e,) α E A / L; steel, the elements' plastic state (a SteelState)."""
 
     def __init__(self, model, bars, element_length, weight=None):
         if not element_length > 0:
@@ -44,34 +46,19 @@ class EmbeddedBars:
         self.axis = d / self.length[:, None]
         self.area = bars.area[self.bar]
         self.young = bars.young[self.bar]
-        self.yield_strength = bars.yield_strength[self.bar]
         mid = 0.5 * (self.points[self.elements[:, 0]] + self.points[self.elements[:, 1]])
         self.weight = np.ones(len(self.elements)) if weight is None else \
             np.asarray(weight(mid), float)
         self.P, _ = model.point_operators(self.points)
-        self.stiffness = (self.P.T @ self._truss_stiffness() @ self.P).tocsr()
-        self.mass = self.P.T @ self._node_masses(bars.density[self.bar])
         self.G = (self._elongation() @ self.P).tocsr()
         self.k = self.weight * self.young * self.area / self.length
+        self.stiffness = (self.G.T @ sp.diags(self.k) @ self.G).tocsr()
+        self.mass = self.P.T @ self._node_masses(bars.density[self.bar])
         self.steel = bars.steel_state(self.bar, self.weight * self.area * self.length)
 
-    def _truss_stiffness(self):
-        """K_b over the element nodes' dofs (3m square): k t tᵀ [[1, −1], [−1, 1]] per element."""
-        k = self.weight * self.young * self.area / self.length
-        block = k[:, None, None] * np.einsum("ei,ej->eij", self.axis, self.axis)   # (e, 3, 3)
-        rows, cols, vals = [], [], []
-        for p, q, sign in ((0, 0, 1), (0, 1, -1), (1, 0, -1), (1, 1, 1)):
-            r = 3 * self.elements[:, p, None, None] + np.arange(3)[None, :, None]
-            c = 3 * self.elements[:, q, None, None] + np.arange(3)[None, None, :]
-            rows.append(np.broadcast_to(r, block.shape).ravel())
-            cols.append(np.broadcast_to(c, block.shape).ravel())
-            vals.append(sign * block.ravel())
-        n = 3 * len(self.points)
-        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(n, n))
-
     def _elongation(self):
-        """B (e, 3m): Δ = t·(u_b − u_a) per element from the element nodes' displacements."""
+        """B (e, 3m): Δ = t·(u_b − u_a) per element from the element nodes' displacements;
+        the trusses' stiffness is Bᵀ diag(k) B, k t tᵀ [[1, −1], [−1, 1]] per element."""
         e = len(self.elements)
         rows = np.repeat(np.arange(e), 6)
         cols = (3 * self.elements[:, [0, 0, 0, 1, 1, 1]] + np.tile(np.arange(3), 2)).ravel()

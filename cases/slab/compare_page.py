@@ -13,11 +13,17 @@ def pair_suffix(seed, pairs):
     return f"-seed-{seed}" if pairs > 1 else ""
 
 
+def verdict_text(v):
+    """within / OUTSIDE, and what weakens it: two full runs only, or a scatter so wide (or a
+    figure so null: no run damaged) that a null prediction lies within it too."""
+    notes = [n for n, on in (("weak: 2 full runs", v["weak"]),
+                             ("a null prediction is within too", v.get("null_within")))
+             if on]
+    return ("within" if v["within"] else "OUTSIDE") + (f" ({'; '.join(notes)})" if notes else "")
+
+
 def verdict_cell(v):
-    if v["within"]:
-        return ("within" + (" (weak: 2 full runs)" if v["weak"] else "")
-                + (" (a null prediction too)" if v.get("null_within") else ""), "good")
-    return ("OUTSIDE", "bad")
+    return verdict_text(v), "good" if v["within"] else "bad"
 
 
 def write(result, full, coupled, out):

@@ -20,6 +20,7 @@ def configure(p):
 
 def run(args):
     from cases.slab.compare import compare, load
+    from cases.slab.compare_page import verdict_text
     from orchestrator.run.folder import check_out, prepare_out
     full = [d for d in [args.full_dir] if d] + args.full
     coupled = [d for d in [args.coupled_dir] if d] + args.coupled
@@ -42,11 +43,11 @@ def run(args):
             n = v["nrms"]
             print(f"{name:14s} coupled nRMS to the full mean {_f(n['coupled_max'])} (largest), "
                   f"full scatter {_f(n['full_leave_one_out_max'])}: "
-                  f"{_verdict(n)}")
+                  f"{verdict_text(n)}")
         for name, v in r["ensemble"]["within_full_scatter"].get("damage", {}).items():
             print(f"{name:14s} coupled |ratio - 1| to the full mean {_f(v['coupled_max'])} "
                   f"(largest), full scatter {_f(v['full_leave_one_out_max'])}: "
-                  f"{_verdict(v)}")
+                  f"{verdict_text(v)}")
         print(_overall(r))
     print(f"results in {out}; the page: {out / 'report.html'}")
     return 0
@@ -64,15 +65,6 @@ def _overall(r):
     if outside:
         return f"verdict: OUTSIDE the full scatter on {', '.join(outside)}{cost}"
     return f"verdict: within the full scatter on all {len(verdicts)} figures{cost}"
-
-
-def _verdict(v):
-    """within / OUTSIDE, and what weakens it: two full runs only, or a scatter so wide (or a
-    figure so null: no run damaged) that a null prediction lies within it too."""
-    notes = [n for n, on in (("weak: 2 full runs", v["weak"]),
-                             ("a null prediction is within too", v.get("null_within")))
-             if on]
-    return ("within" if v["within"] else "OUTSIDE") + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def _f(x):
