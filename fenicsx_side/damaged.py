@@ -160,6 +160,12 @@ class DamageModel(ElasticModel):
         s.max_principal *= keep
         return s
 
+    def take_state(self, old, nodes, cells):
+        super().take_state(old, nodes, cells)
+        self.kappa[:], self.eps_f[:], self.damage[:] = (old.kappa[cells], old.eps_f[cells],
+                                                        old.damage[cells])
+        self.dissipated = old.dissipated
+
     # --- history, for checkpoints -----------------------------------------------------------
     def history(self):
         return {"kappa": self.kappa, "eps_f": self.eps_f, "damage": self.damage,

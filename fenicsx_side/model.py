@@ -249,6 +249,23 @@ class ElasticModel:
             m.restore_history({k[len(prefix):]: v for k, v in history.items()
                                if k.startswith(prefix)})
 
+    def take_state(self, old, nodes, cells):
+        """Go on from the state of `old`, a model of the same grid whose nodes hold this
+        one's (the FE part before its DE zone grew): nodes[i] is the node of `old` at this
+        model's node i, cells[c] its cell at this model's cell c (the damage history's)."""
+        if self.members or old.members or self.comm.size > 1:
+            raise ValueError("an FE state moves to another mesh on one rank and without "
+                             "members of their own (bars)")
+        dofs = (3 * np.asarray(nodes)[:, None] + np.arange(3)).ravel()
+        self.u, self.v, self.t = old.u[dofs], old.v[dofs], old.t
+
+    def gradient_at(self, points):
+        """∇u at `points` (n, 3, 3), [p, a, b] = ∂u_a/∂x_b (serial)."""
+        cells, X = self.locate(points)
+        grad = self._basis_at(cells, X)[1]                              # (n, nv, 3)
+        nodal = self.u.reshape(-1, 3)[self.cell_nodes[cells]]           # (n, nv, 3)
+        return np.einsum("pia,pib->pab", nodal, grad)
+
     # --- coupling operators -----------------------------------------------------------------
     def locate(self, points):
         """Cell containing each point and the point's reference coordinates in it: (cells, X).

@@ -158,6 +158,7 @@ class Model:
             self.damage.record_initial()
         self.energy_bodies = [self.spheres]
         self.sensor_names, self.sensor_positions = [], np.empty((0, 3))
+        self.sensor_order = None
         self._sensor_spheres, self._sensor_nodes = BodySet([]), np.empty(0, int)
         self._seconds = {"yade": 0.0, "fe": 0.0, "coupling": 0.0}
 
@@ -207,13 +208,15 @@ class Model:
         return s
 
     # --- what the run loop reads ---------------------------------------------------------------
-    def set_sensors(self, names, spheres, nodes, positions):
-        """Sensors on spheres (indices into `spheres`), then on FE nodes, in `names` order."""
+    def set_sensors(self, names, spheres, nodes, positions, order=None):
+        """Sensors on spheres (indices into `spheres`), then on FE nodes, in `names` order;
+        or, with `order`, sensor j is the order[j]-th of those."""
         from yade_side.bulk import BodySet
         self.sensor_names = list(names)
         self._sensor_spheres = BodySet(self.spheres.ids[np.asarray(spheres, int)])
         self._sensor_nodes = np.asarray(nodes, int)
         self.sensor_positions = np.asarray(positions, float).reshape(-1, 3)
+        self.sensor_order = None if order is None else np.asarray(order, int)
 
     def sensor_displacements(self):
         """(n_sensors, 3) displacements now."""
@@ -223,23 +226,30 @@ class Model:
             d = self._sensor_spheres.displacement()
         if self._sensor_nodes.size:
             d = np.vstack([d, self.fe.u.reshape(-1, 3)[self._sensor_nodes]])
-        return d
+        return d if self.sensor_order is None else d[self.sensor_order]
 
     def energy(self):
-        """Kinetic (spheres, FE) + CPM elastic + FE strain energy (the bridging overlap is
-        counted by both models: a diagnostic for blow-ups, not a balance). YADE's
+        """Kinetic (spheres, FE) + CPM elastic + FE strain energy (energy_parts): with the
+        consistent weighting, the coupled model's weighted energy; with the nodal one the
+        bridging overlap is counted by both models (a diagnostic for blow-ups, not a
+        balance)."""
+        return sum(self.energy_parts().values())
+
+    def energy_parts(self):
+        """{"de_kinetic", "de_links", "fe_kinetic", "fe_strain"} (J). YADE's
         Law2_ScGeom_CpmPhys_Cpm.elasticEnergy() turns NaN once two bodies touch; it is then
-        left out and the kinetic energy alone is guarded."""
+        left out (0) and the kinetic energy alone is guarded."""
         from yade_side.scene import cpm_law
-        e = 0.0
+        kinetic = 0.0
         for bodies in self.energy_bodies:
             bodies.read()
-            e += bodies.kinetic_energy()
-        if self.fe is not None:
-            e += self.fe.kinetic_energy() + self.fe.strain_energy()
+            kinetic += bodies.kinetic_energy()
         law = cpm_law()           # looked up each time: a loaded checkpoint replaces engines
         elastic = law.elasticEnergy() if law is not None else 0.0
-        return e + elastic if np.isfinite(elastic) else e
+        parts = {"de_kinetic": kinetic, "de_links": elastic if np.isfinite(elastic) else 0.0}
+        if self.fe is not None:
+            parts.update(fe_kinetic=self.fe.kinetic_energy(), fe_strain=self.fe.strain_energy())
+        return parts
 
     def sphere_count(self):
         return sum(len(b) for b in self.energy_bodies)

@@ -173,13 +173,16 @@ def same_bits(a, b):
     return np.array_equal(np.asarray(a, float).view(np.int64), np.asarray(b, float).view(np.int64))
 
 
-def find_offset(links):
+def find_offset(links, sample=None):
     """Offset (in doubles) of the history block inside CpmPhys: where every link's memory
-    holds exactly the values Python reads. Links at rest can hold a block (mostly zeros) that
-    matches at several places; the offset this YADE version's layout was verified at
-    (HISTORY_OFFSET) then decides. CheckpointError if it cannot be found."""
+    holds exactly the values Python reads (with `sample`, that many links spread over the
+    list: the layout is the class's, the same in every link). Links at rest can hold a block
+    (mostly zeros) that matches at several places; the offset this YADE version's layout was
+    verified at (HISTORY_OFFSET) then decides. CheckpointError if it cannot be found."""
     if not links:
         return None
+    if sample is not None and len(links) > sample:
+        links = links[::-(-len(links) // sample)]
     probe = max(links, key=lambda i: np.count_nonzero(history_values(i.phys)))
     address = state_address(probe.phys)
     if address is None:

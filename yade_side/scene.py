@@ -82,6 +82,19 @@ def create_cohesive_links():
                 functor.interactionDetectionFactor = 1.0
 
 
+def settle_forces():
+    """The interactions' forces at the current positions, with nothing moved: one step of zero
+    length (what the law's energy reads; the next real step computes the same forces first).
+    Only for a scene whose engines do not couple inside the step."""
+    O = import_yade().Omega()
+    dt = O.dt
+    O.dt = 0.0
+    try:
+        O.step()
+    finally:
+        O.dt = dt
+
+
 def release_cracked_shear(omega=SHEAR_RELEASE_OMEGA):
     """Zero shear stiffness (CpmPhys.G, which the law multiplies the elastic shear strain by)
     on the cohesive links whose damage exceeds omega; returns how many were released now.

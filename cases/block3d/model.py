@@ -5,8 +5,9 @@ from cases.block3d.spec import UniformOverlap, cubic_lattice
 
 
 class BlockScene:
-    """The block's spheres (orchestrator.contracts.DEScene): a dense packing of the DE zone
-    and the band, elastic CPM links that never damage."""
+    """The block's spheres (orchestrator.contracts.DEScene): a dense packing (or a cubic
+    lattice) of the box [0, de_hi], of which the model keeps those `keep` holds, with
+    elastic CPM links that never damage."""
     time_step = (None, "")
 
     def __init__(self, spec):
@@ -22,6 +23,9 @@ class BlockScene:
         else:
             centres, radii = sphere_arrays(dense_box_packing((0, 0, 0), s.de_hi, s.radius))
         fraction = packing_fraction(radii, np.prod(s.de_hi))
+        if keep is not None:
+            inside = keep(centres)
+            centres, radii = centres[inside], radii[inside]
         reset_scene()
         mat = yade.Omega().materials.append(yade.wrapper.CpmMat(
             young=s.contact_young, poisson=s.contact_poisson, density=s.density / fraction,

@@ -131,9 +131,10 @@ class SlabScene:
         return False
 
 
-def description(spec, model, grid=None):
+def description(spec, model, grid=None, dt=None):
     """The builder's description of the slab's `model` (full or coupled), with the DE zone
-    of `grid` (default: the spec's box, slab_grid)."""
+    of `grid` (default: the spec's box, slab_grid), and the time step `dt` (default: the
+    spec's dt_safety × the critical step)."""
     if model not in MODELS:
         raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
     if spec.elastic_outside and model != "full":
@@ -156,16 +157,16 @@ def description(spec, model, grid=None):
         weighted = model == "coupled" and spec.weighting == "consistent"
         if part is not None:
             bars = DEBars(part, spec.radius, bond(spec), bridging.beta if weighted else None)
-    return Description(scene, fe, bridging, coupling, dt_safety=spec.dt_safety,
-                       bars=bars), grid
+    return Description(scene, fe, bridging, coupling, dt_safety=spec.dt_safety, dt=dt,
+                       dt_source="the time step of the run's first zone", bars=bars), grid
 
 
 class SlabModel(Model):
     """The slab's full or coupled model, built, with its sensors."""
 
-    def __init__(self, spec, model, grid=None):
+    def __init__(self, spec, model, grid=None, dt=None):
         t0 = perf_counter()
-        d, self.grid = description(spec, model, grid)
+        d, self.grid = description(spec, model, grid, dt)
         super().__init__(assemble(d))
         self.de_bars, self.bar_ids = d.bars, self.parts.bar_ids
         scene = d.scene
@@ -256,7 +257,7 @@ def run_built(m, out, quiet=False, resume=False, inputs=None):
     schedule = Schedule(spec.steps, spec.sample_every, spec.check_every, spec.output_every,
                         spec.checkpoint_every)
     return run_loop(m, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
-                    info=info, arrays={"slab_index": m.slab_index},
+                    info=info, arrays=lambda: {"slab_index": m.slab_index},
                     checks=lambda damage, peak: _post_run_checks(m, damage, peak, info, bars),
                     quiet=quiet, resume=resume,
                     inputs=spec_inputs(spec, model) if inputs is None else inputs)

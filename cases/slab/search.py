@@ -45,19 +45,26 @@ def run_auto(spec, out, quiet=False):
     else:
         record["zone_message"] = message(outcome, full_spheres[0], record)
         print(record["zone_message"])
-        summary = {"model": "coupled", "spec": asdict(spec)}
-        if spec.fallback == "full":
-            full_out = out / "full"
-            full_out.mkdir()
-            summary = run(replace(spec, zone="box"), "full", full_out, quiet)
-            for entry in list(full_out.iterdir()):
-                entry.rename(out / entry.name)
-            full_out.rmdir()
-            summary["zone_fallback"] = "full"
+        summary = fallback(spec, out, quiet)
     summary.update(record)
     write_json(out / "summary.json", summary)
     plot_zones(out / "zones.png", grid, outcome, limit, f"slab {spec.scale}, "
                f"{spec.impactor_speed:g} m/s")
+    return summary
+
+
+def fallback(spec, out, quiet):
+    """When coupling cannot pay: the full model's run in `out` with fallback "full" (its
+    summary), else a summary that says only what was asked."""
+    if spec.fallback != "full":
+        return {"model": "coupled", "spec": asdict(spec)}
+    full_out = out / "full"
+    full_out.mkdir()
+    summary = run(replace(spec, zone="box"), "full", full_out, quiet)
+    for entry in list(full_out.iterdir()):
+        entry.rename(out / entry.name)
+    full_out.rmdir()
+    summary["zone_fallback"] = "full"
     return summary
 
 

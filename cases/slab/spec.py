@@ -31,9 +31,10 @@ class SlabSpec:
     elastic_outside: bool = key(False, boolean,
                                 help="full model: links outside the coupled model's DE zone "
                                      "never damage, as the coupled model assumes")
-    zone: str = key("box", choice("box", "auto"),
-                    help="DE zone: 'box' (de_zone, full_width), or 'auto': grown by the "
-                         "coupled run's own checks (docs/auto-zone.md)")
+    zone: str = key("box", choice("box", "auto", "grow"),
+                    help="DE zone: 'box' (de_zone, full_width); 'auto': grown by the coupled "
+                         "run's own checks, each time run again from t = 0; 'grow': grown "
+                         "by the same checks during the run (docs/auto-zone.md)")
     zone_start: float = key(None, number, positive, section="zone", name="start",
                             help="auto: side (m) of a square start zone under the impact, "
                                  "rounded to the FE grid; default the box zone")
@@ -160,14 +161,14 @@ class SlabSpec:
         if self.fe_material == "damage":
             self._check_damage(material)
         if self.band_ratio is not None:
-            if self.zone == "auto":
-                raise ValueError("slab: band_ratio (a graded FE mesh) applies to box zones, not "
-                                 "to zone 'auto'")
+            if self.zone != "box":
+                raise ValueError(f"slab: band_ratio (a graded FE mesh) applies to box zones, "
+                                 f"not to zone {self.zone!r}")
             if self.band_ratio > self.fe_ratio:
                 raise ValueError(f"slab: band_ratio = {self.band_ratio!r} must not exceed "
                                  f"fe_ratio = {self.fe_ratio!r} (the band's cells are the "
                                  f"finest)")
-        if self.zone == "auto":
+        if self.zone != "box":
             from cases.slab.zone import check
             check(self)
         if self.relaxation == "auto" and chosen:

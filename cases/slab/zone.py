@@ -59,6 +59,9 @@ def levels(spec):
 
 def check(spec):
     """The auto-zone options of `spec`, checked: (base grid, start, limit, trip levels)."""
+    if spec.zone == "grow" and spec.reinforced:
+        raise ValueError("slab: zone 'grow' does not carry the bars' state to a grown zone: "
+                         "run the reinforced slab with zone 'box' or 'auto'")
     base = slab_grid(spec)
     start, limit = start_zone(spec), limit_zone(spec)
     try:

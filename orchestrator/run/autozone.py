@@ -215,26 +215,27 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
                    float(seconds / sphere_steps) if sphere_steps else float("nan"))
 
 
-def plot_zones(path, grid, outcome, limit, title):
-    """Plan of the structure (a grid of two axes) coloured by the attempt at which each cell
-    joined the zone, with the limit's outline."""
+def plot_zones(path, grid, outcome, limit, title, joined="attempt the cell joined"):
+    """Plan of the structure (a grid of two axes) coloured by the zone (outcome.zones: the
+    attempts', or a growing zone's) in which each cell joined, with the limit's outline;
+    `joined`: the colour bar's label."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
     from common.files import save_figure
-    joined = np.full(grid.shape, np.nan)
+    first = np.full(grid.shape, np.nan)
     for k, z in reversed(list(enumerate(outcome.zones))):
-        joined[z] = k + 1
+        first[z] = k + 1
     (x0, y0), (x1, y1) = grid.p0[grid.axes], grid.p1[grid.axes]
     fig, ax = plt.subplots(figsize=(6.5, 5))
-    img = ax.imshow(joined.T, origin="lower", extent=(x0, x1, y0, y1), cmap="viridis", vmin=1,
+    img = ax.imshow(first.T, origin="lower", extent=(x0, x1, y0, y1), cmap="viridis", vmin=1,
                     vmax=max(1, len(outcome.zones)), interpolation="nearest")
     ax.add_collection(LineCollection(_outline(limit, (x0, y0), grid.size[grid.axes]),
                                      colors="red", linewidths=1.5))
     ax.set(xlabel="x (m)", ylabel="y (m)", aspect="equal",
-           title=f"{title}: zone by attempt ({outcome.status}; red: limit)")
-    fig.colorbar(img, ax=ax, shrink=0.8, label="attempt the cell joined",
+           title=f"{title}\n({outcome.status}; red: limit)")
+    fig.colorbar(img, ax=ax, shrink=0.8, label=joined,
                  ticks=np.arange(1, len(outcome.zones) + 1))
     fig.tight_layout()
     save_figure(fig, path)

@@ -36,7 +36,8 @@ def run(model, schedule, out, title, reference_energy, info=None, arrays=None, c
         notes=(), quiet=False, resume=False, inputs=None):
     """Run `model` for schedule.steps and write its results folder `out` (already prepared).
 
-    info: entries put first in summary.json; arrays: extra entries of damage.npz; inputs:
+    info: entries put first in summary.json; arrays: extra entries of damage.npz (or a
+    function that gives them at the end); inputs:
     what the results depend on (orchestrator.run.inputs), kept in checkpoints and compared
     on resume;
     checks(final_damage, fe_peak) -> warnings (fe_peak: outputs.fe_peak, None without FE);
@@ -67,7 +68,8 @@ def run(model, schedule, out, title, reference_energy, info=None, arrays=None, c
         warnings = list(checks(recorder.rec.maps[-1], peak)) if checks else []
         summary = outputs.summary(m, recorder.rec, schedule, wall, recorder.seconds(),
                                   warnings, info)
-        outputs.write_results(out, title, m, recorder.rec, summary, arrays)
+        outputs.write_results(out, title, m, recorder.rec, summary,
+                              arrays() if callable(arrays) else arrays)
         for w in warnings:
             log.warning(w)
             print(f"WARNING: {w}")
@@ -104,7 +106,7 @@ def _loop(m, schedule, recorder, title, quiet):
                 recorder.checkpoint(n)
             if stop.requested and n < s.steps:
                 how = (f"resume with --resume {recorder.out}" if recorder.checkpoints else
-                       "no checkpoint (the FE state is distributed over MPI ranks)")
+                       f"no checkpoint ({recorder.no_checkpoints})")
                 raise restart.Stopped(f"stopped at step {n} of {s.steps}: {how}", stop.signum)
 
 

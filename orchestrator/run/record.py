@@ -3,6 +3,8 @@ blow-up guard), damage maps and ParaView frames, checkpoints. The loop calls it;
 the series files itself, frame by frame."""
 from time import perf_counter
 
+import numpy as np
+
 from orchestrator.run import restart
 from orchestrator.run.guard import BlowUpGuard
 
@@ -12,9 +14,16 @@ class Recorder:
         from yade_side.output import SphereSeries
         self.m, self.out, self.meta, self.log = model, out, meta, log
         self.guard = BlowUpGuard(reference_energy, growth=2.0)
-        self.checkpoints = model.fe is None or not model.fe.distributed
+        growing = hasattr(model, "on_grow")
+        self.no_checkpoints = ("the FE state is distributed over MPI ranks"
+                               if model.fe is not None and model.fe.distributed else
+                               "a zone that grows during the run does not resume" if growing
+                               else None)
+        self.checkpoints = self.no_checkpoints is None
         if not self.checkpoints:
-            log.info("no checkpoints: the FE state is distributed over MPI ranks")
+            log.info("no checkpoints: %s", self.no_checkpoints)
+        if growing:
+            model.on_grow.append(self.regrid)
         if resume:
             self.rec = restart.load(out, model, meta)
             log.info("resumed from the checkpoint of step %d", self.rec.n)
@@ -81,6 +90,18 @@ class Recorder:
         if self.fe_series is not None:
             self.fe_series.write(t)
         self.output_s += perf_counter() - t0
+
+    def regrid(self, old, new, k):
+        """The model's DE zone grew (its k-th conversion): the damage maps so far are put on
+        its spheres (a sphere new to the DE had none), and the FE series goes on in
+        fe-zone{k + 1}.xdmf, the FE part's new mesh."""
+        from orchestrator.run.grow import match
+        at = match(old.spheres.ref_pos, new.spheres.ref_pos, 1e-9)
+        self.rec.maps = [np.where(at >= 0, m[at], 0.0) for m in self.rec.maps]
+        if self.fe_series is not None:
+            from fenicsx_side.output import XdmfSeries
+            self.fe_series.close()
+            self.fe_series = XdmfSeries(self.out / f"fe-zone{k + 1}.xdmf", new.fe)
 
     def seconds(self):
         """Time split of this segment and the earlier ones."""

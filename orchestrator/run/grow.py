@@ -1,0 +1,277 @@
+"""A DE zone that grows during the run (`--zone grow`): the automatic zone's indicators
+(orchestrator.run.autozone) trip as there, and instead of starting again from t = 0 the run
+goes on from the same step in the model of the grown zone, built afresh through the one
+builder and given the old model's state (docs/auto-zone.md):
+- bodies of both models (matched by reference position): their state; their cohesive links:
+  the CPM history, and a link the old scene had lost (broken) is erased;
+- bodies new to the DE (the converted FE cells and the new band): the FE field at their
+  centre, position ref + k u, velocity k v, rotation and spin h u, h v (½ curl); their links
+  are made at reference positions, so the positions give them the FE's normal strain exactly,
+  and the FE's shear strain is written into them (`shear`);
+- FE nodes and cells that stay FE (matched by coordinates): u, v, t and the damage history;
+- the coupling: the band spheres' accumulated rotations (the old band's kept, the new ones'
+  h u), the energy meter.
+The new model's stepper, weights and multiplier operators are the builder's: the band's
+factorisation is made once per conversion. Frictional contacts are made again by the
+collider (without their friction history), and YADE's own step counter restarts (what
+counts the run's steps is the run loop's).
+"""
+import logging
+from dataclasses import dataclass
+from time import perf_counter
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from orchestrator.run.autozone import Tripped, Watch
+
+run_log = logging.getLogger("orchestrator.run")
+
+
+class ZoneLimit(Exception):
+    """The zone cannot grow as a trip asks: `reached` is "cells" (its limit) or "cost"."""
+
+    def __init__(self, message, reached, tripped):
+        super().__init__(message)
+        self.reached, self.tripped = reached, tripped
+
+
+def match(old, new, tol):
+    """For each point of `new`, the index of the point of `old` within `tol` of it, or -1."""
+    if len(old) == 0:
+        return np.full(len(new), -1)
+    dist, index = cKDTree(old).query(new, distance_upper_bound=tol)
+    return np.where(np.isfinite(dist), index, -1)
+
+
+@dataclass
+class Snapshot:
+    """What a model's state is made of, read before the next model's build resets the DE
+    scene (the FE partner, a Python object, is kept whole)."""
+    ref: np.ndarray          # (n, 3) reference positions of every DE body
+    state: np.ndarray        # (n, 13) their state
+    links: object            # yade_side.transfer.Links
+    fe: object
+    bridge_ref: np.ndarray
+    rotation: np.ndarray
+    exchange: tuple          # (to_fe, net)
+
+
+def bodies(model):
+    """(ids, reference positions) of every DE body the model integrates."""
+    sets = model.energy_bodies
+    return (np.concatenate([b.ids for b in sets]),
+            np.vstack([b.ref_pos for b in sets]))
+
+
+def snapshot(model):
+    from yade_side.transfer import capture_links
+    ids, ref = bodies(model)
+    for b in model.energy_bodies:
+        b.read()
+    stepper = model.stepper
+    return Snapshot(ref, np.vstack([b.state for b in model.energy_bodies]).copy(),
+                    capture_links(ids), model.fe, stepper.bridge.ref_pos.copy(),
+                    stepper.bridge.rotation.copy(),
+                    (stepper.exchange.to_fe, stepper.exchange.net))
+
+
+def carry(snap, model, tol, shear=True):
+    """Put the built `model` (a grown zone) in the state of `snap`; returns what was carried
+    (counts of bodies and links)."""
+    from yade_side.bulk import rotation_quaternion
+    from yade_side.transfer import lever_arms_are_radii, restore_links
+    old_fe, fe = snap.fe, model.fe
+    ids, ref = bodies(model)
+    old_of = match(snap.ref, ref, tol)
+    added = np.flatnonzero(old_of < 0)
+    state = np.empty((len(ids), 13))
+    state[old_of >= 0] = snap.state[old_of[old_of >= 0]]
+    k, h = old_fe.point_operators(ref[added])
+    state[added, 0:3] = ref[added] + (k @ old_fe.u).reshape(-1, 3)
+    state[added, 3:6] = (k @ old_fe.v).reshape(-1, 3)
+    state[added, 6:9] = (h @ old_fe.v).reshape(-1, 3)
+    state[added, 9:13] = rotation_quaternion((h @ old_fe.u).reshape(-1, 3))
+    start = 0
+    for b in model.energy_bodies:
+        b.state[:] = state[start:start + len(b)]
+        b.write()
+        start += len(b)
+    radius = np.concatenate([b.radius for b in model.energy_bodies])
+    radii_levers = lever_arms_are_radii()
+
+    def affine_shear(ends, normal):
+        """epsT of links under the old FE's displacement gradient G at their new end: the
+        tangential part of G n − (lever / L) W n (W = skew G: the spheres turn with ½ curl u
+        and the law's lever arms are the radii, or the contact point's L)."""
+        new_end = np.where(old_of[ends[:, 0]] < 0, ends[:, 0], ends[:, 1])
+        G = old_fe.gradient_at(ref[new_end])
+        W = 0.5 * (G - G.transpose(0, 2, 1))
+        length = np.linalg.norm(ref[ends[:, 1]] - ref[ends[:, 0]], axis=1)
+        lever = radius[ends].sum(axis=1) if radii_levers else length
+        t = (np.einsum("pab,pb->pa", G, normal)
+             - (lever / length)[:, None] * np.einsum("pab,pb->pa", W, normal))
+        return t - np.einsum("pa,pa->p", t, normal)[:, None] * normal
+
+    counts = restore_links(snap.links, ids, old_of, affine_shear if shear else None)
+    nodes = match(old_fe.nodes, fe.nodes, tol)
+    cells = match(_centres(old_fe), _centres(fe), tol)
+    if (nodes < 0).any() or (cells < 0).any():
+        raise RuntimeError("the grown zone's FE part has nodes or cells the old one did not")
+    fe.take_state(old_fe, nodes, cells)
+    bridge = model.stepper.bridge
+    kept = match(snap.bridge_ref, bridge.ref_pos, tol)
+    rotation = np.empty((len(bridge), 3))
+    rotation[kept >= 0] = snap.rotation[kept[kept >= 0]]
+    if (kept < 0).any():
+        h = old_fe.point_operators(bridge.ref_pos[kept < 0])[1]
+        rotation[kept < 0] = (h @ old_fe.u).reshape(-1, 3)
+    bridge.rotation[:] = rotation
+    bridge.rotation_pred[:] = rotation
+    bridge.read()
+    model.stepper.exchange.to_fe, model.stepper.exchange.net = snap.exchange
+    return {"bodies_kept": int(np.count_nonzero(old_of >= 0)), "bodies_added": int(len(added)),
+            **{f"links_{k}": v for k, v in counts.items()}}
+
+
+def _centres(fe):
+    return fe.nodes[fe.cell_nodes].mean(axis=1)
+
+
+class GrowingModel:
+    """A coupled model whose DE zone grows during the run (orchestrator.contracts.RunModel:
+    the run loop steps it as any model). build(mask) -> Model: the model of a zone (a mask
+    of `grid`), every one with the run's time step; the zone grows at each trip over the
+    flagged cells and `levels.margin` more, inside `limit`; budget(conversions, steps) says
+    why growing cannot pay (None if it can). Listeners in `on_grow` are told (old, new, k)
+    after the k-th conversion. Reads of attributes go to the current model."""
+
+    def __init__(self, build, grid, zone, limit, tensile_strength, levels, tol, budget=None,
+                 log=print, shear=True):
+        t0 = perf_counter()
+        self.__dict__.update(build=build, cell_grid=grid, limit=limit, ft=tensile_strength,
+                             levels=levels, tol=tol, budget=budget, log=log, shear=shear)
+        self.zone = zone.copy()
+        self.zones = [self.zone.copy()]
+        self.current = build(self.zone)
+        if self.current.parts.inside_step:
+            raise ValueError("a zone that grows during the run needs the coupling outside "
+                             "YADE's step (its forces are read at a step of zero length)")
+        self.watch = Watch(self.current, grid, tensile_strength, levels)
+        self.conversions, self.on_grow = [], []
+        self.segments = []              # (spheres, steps) of each zone run
+        self._earlier = {}              # time split of the earlier models
+        self.peaks = {"stress": 0.0, "omega": 0.0, "damage": 0.0}
+        self._bind_sensors = _sensor_binding(self.current)
+        self.build_s = perf_counter() - t0
+
+    def __getattr__(self, name):
+        current = self.__dict__.get("current")
+        if current is None:
+            raise AttributeError(name)
+        return getattr(current, name)
+
+    def step(self):
+        try:
+            self.current.step()
+        except Tripped as t:
+            self.grow(t)
+
+    @property
+    def seconds(self):
+        now = self.current.seconds
+        return {k: self._earlier.get(k, 0.0) + now.get(k, 0.0) for k in {*now, *self._earlier}}
+
+    @property
+    def steps(self):
+        return self.watch.steps
+
+    def grow(self, tripped):
+        """Convert the cells `tripped` flags, and `levels.margin` more, and go on in the model
+        of the grown zone; ZoneLimit if the zone cannot grow so."""
+        from yade_side.scene import settle_forces
+        t0 = perf_counter()
+        grid, old, n = self.cell_grid, self.current, self.watch.steps
+        grown = (self.zone | grid.dilate(tripped.cells, self.levels.margin)) & self.limit
+        if (tripped.cells & ~self.limit).any() or not (grown & ~self.zone).any():
+            raise ZoneLimit(f"the DE zone would pass its limit ({tripped})", "cells", tripped)
+        why = None if self.budget is None else self.budget(self.segments + [
+            (old.sphere_count(), n - sum(s for _, s in self.segments))], n)
+        if why:
+            raise ZoneLimit(why, "cost", tripped)
+        self._record_peaks()
+        settle_forces()
+        before = old.energy_parts()
+        snap = snapshot(old)
+        self.segments.append((old.sphere_count(), n - sum(s for _, s in self.segments)))
+        seconds = old.seconds
+        self._earlier = {k: self._earlier.get(k, 0.0) + seconds.get(k, 0.0)
+                         for k in {*seconds, *self._earlier}}
+        new = self.build(grown)
+        carried = carry(snap, new, self.tol, self.shear)
+        self._bind_sensors(new)
+        settle_forces()
+        after = new.energy_parts()
+        energy_before, energy_after = sum(before.values()), sum(after.values())
+        self.watch = Watch(new, grid, self.ft, self.levels)
+        self.watch.steps = n
+        self.current, self.zone = new, grown
+        self.zones.append(grown.copy())
+        self.conversions.append({
+            "step": n, "indicator": tripped.indicator, "cells": int(grown.sum()),
+            "cells_added": int((grown & ~self.zones[-2]).sum()),
+            "spheres_added": carried["bodies_added"], "spheres": int(new.sphere_count()),
+            "energy_before": energy_before, "energy_after": energy_after,
+            "energy_parts_before": before, "energy_parts_after": after,
+            "carried": carried, "wall_s": perf_counter() - t0})
+        line = (f"zone grown at step {n} ({tripped.indicator}): {int(grown.sum())} cells, "
+                f"{new.sphere_count()} spheres (+{carried['bodies_added']}); energy "
+                f"{energy_before:.6g} J → {energy_after:.6g} J")
+        run_log.info("%s; %s; energy parts %s → %s", line, carried, before, after)
+        self.log(line)
+        for listener in self.on_grow:
+            listener(old, new, len(self.conversions))
+
+    def _record_peaks(self):
+        w = self.watch
+        for key, value in (("stress", w.peak_stress), ("omega", w.peak_omega),
+                           ("damage", w.peak_damage)):
+            self.peaks[key] = max(self.peaks[key], value)
+
+    def record(self, steps):
+        """What summary.json keeps of the growth."""
+        self._record_peaks()
+        segments = self.segments + [(self.current.sphere_count(),
+                                     steps - sum(s for _, s in self.segments))]
+        return {"zone_conversions": self.conversions,
+                "zone_final": {"cells": np.argwhere(self.zone).tolist(),
+                               "n_cells": int(self.zone.sum())},
+                "zone_sphere_steps": int(sum(a * b for a, b in segments)),
+                "zone_segments": [{"spheres": int(a), "steps": int(b)} for a, b in segments],
+                "zone_peaks": dict(self.peaks)}
+
+
+def _sensor_binding(first):
+    """A function that puts the sensors of the model `first` on another model: at the same
+    points of the body, read from the same sphere, or for an FE node that a grown zone has
+    taken, from the sphere nearest its position (as the full model reads it)."""
+    if first.sensor_order is not None:
+        raise ValueError("the first model's sensors must be in set_sensors' order")
+    names, positions = list(first.sensor_names), first.sensor_positions.copy()
+    n_spheres = len(first._sensor_spheres)
+    sphere_ref = first._sensor_spheres.ref_pos.copy() if n_spheres else np.empty((0, 3))
+    node_pos = (first.fe.nodes[first._sensor_nodes] if first._sensor_nodes.size
+                else np.empty((0, 3)))
+
+    def bind(model):
+        ref = model.spheres.ref_pos
+        nearest = lambda points: [int(np.argmin(np.linalg.norm(ref - p, axis=1)))
+                                  for p in points]
+        at = match(model.fe.nodes, node_pos, 1e-9 * (1 + np.abs(node_pos).max(initial=0)))
+        # sensor j of `first` is the order[j]-th of the spheres, then the nodes, bound here
+        taken = np.flatnonzero(at < 0)
+        bound = list(range(n_spheres)) + [n_spheres + j for j in taken] + \
+            [n_spheres + j for j in np.flatnonzero(at >= 0)]
+        model.set_sensors(names, nearest(sphere_ref) + nearest(node_pos[taken]),
+                          [int(i) for i in at if i >= 0], positions, np.argsort(bound))
+    return bind

@@ -1,0 +1,149 @@
+"""A scene's state carried into another scene of the same packing (the model of a grown DE
+zone, built afresh): bodies by a correspondence the caller gives, and their CPM
+interactions with their history (yade_side.memory: O.save does not keep it, nor would a
+rebuilt scene): links broken in the old scene are erased in the new, and the new links get
+their shear strain. Frictional contacts (the impactor on the slab, a broken link closed
+again) are made again with their reference penetration: one the collider made anew would
+take the current penetration as its reference and start without force.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from yade_side import import_yade
+from yade_side.memory import WIDTH, find_offset, history_block
+from yade_side.scene import settle_forces
+
+# the 19 history doubles (memory.HISTORY): 7 scalars, then sigmaT, Fs, epsTPl, epsT, whose
+# signs follow the link's normal (from id1 to id2)
+_VECTORS = slice(7, WIDTH)
+EPS_T = slice(16, 19)
+SAMPLE = 256   # links on which the history's place in memory is verified (checkpoints: all)
+
+
+@dataclass
+class Links:
+    """The CPM interactions of a scene: `pairs` (m, 2) as indices into the captured bodies,
+    their history (m, 19), ScGeom normal (m, 3), shear modulus G (m,; 0 once released),
+    reference penetration refPD (m,) and whether each is a cohesive link (m,)."""
+    pairs: np.ndarray
+    history: np.ndarray
+    normal: np.ndarray
+    shear_modulus: np.ndarray
+    ref_penetration: np.ndarray
+    cohesive: np.ndarray
+
+
+def _cpm(O, yade, index):
+    """The real CPM interactions between bodies of `index` (id → position, -1: not one)."""
+    return [i for i in O.interactions
+            if i.isReal and isinstance(i.phys, yade.wrapper.CpmPhys)
+            and max(i.id1, i.id2) < len(index) and min(index[i.id1], index[i.id2]) >= 0]
+
+
+def capture_links(ids):
+    """Interactions of the current scene between the bodies `ids` (their index in `ids`
+    names them)."""
+    yade = import_yade()
+    index = _index(ids)
+    links = _cpm(yade.Omega(), yade, index)
+    offset = find_offset(links, SAMPLE)
+    column = lambda get: np.array([get(i) for i in links])
+    return Links(column(lambda i: (index[i.id1], index[i.id2])).reshape(-1, 2).astype(int),
+                 column(lambda i: history_block(i.phys, offset)).reshape(-1, WIDTH),
+                 column(lambda i: tuple(i.geom.normal)).reshape(-1, 3),
+                 column(lambda i: i.phys.G), column(lambda i: i.phys.refPD),
+                 column(lambda i: i.phys.isCohesive).astype(bool))
+
+
+def restore_links(links, ids, old_of, shear=None):
+    """Into the current scene (its links made, its bodies `ids` where the captured ones
+    are; old_of: index of each into the captured bodies, -1 for a body the old scene did not
+    have): each interaction between two old bodies takes its captured history, normal, G and
+    refPD, a link the old scene had lost (it broke there) is erased, a contact it had is
+    made (the old scene's bodies are all in the new one); a link with a new body gets epsT =
+    shear(ends, normal) (its ends' indices into `ids`) when `shear` is given. Returns the
+    counts of each kind. The scene must not couple inside its step (settle_forces)."""
+    yade = import_yade()
+    from yade import utils
+    O = yade.Omega()
+    index, old_of = _index(ids), np.asarray(old_of, int)
+    captured = {(int(a), int(b)): k for k, (a, b) in enumerate(links.pairs)}
+    erase, new, carry = [], [], []
+    for i in _cpm(O, yade, index):
+        j1, j2 = index[i.id1], index[i.id2]
+        a, b = old_of[j1], old_of[j2]
+        if a < 0 or b < 0:
+            new.append((i, j1, j2))
+            continue
+        k, sign = captured.pop((a, b), None), 1.0
+        if k is None:
+            k, sign = captured.pop((b, a), None), -1.0
+        if k is None:
+            erase.append((i.id1, i.id2))
+        else:
+            carry.append((i, k, sign))
+    for pair in erase:
+        O.interactions.erase(*pair)
+    offset = find_offset([i for i, _, _ in carry] + [i for i, _, _ in new], SAMPLE)
+    for i, k, sign in carry:
+        _write(i, links, k, sign, offset)
+    if shear is not None and new:
+        ends = np.array([(j1, j2) for _, j1, j2 in new])
+        normal = np.array([tuple(i.geom.normal) for i, _, _ in new])
+        for (i, _, _), eps in zip(new, shear(ends, normal)):
+            history_block(i.phys, offset)[EPS_T] = eps
+    # contacts: made now, their stiffness and reference set by the law at their first step
+    # (a step of zero length, which leaves the links above as they are), then their history
+    id_of = np.full(max(old_of.max(initial=-1), links.pairs.max(initial=-1)) + 1, -1)
+    id_of[old_of[old_of >= 0]] = np.asarray(ids)[old_of >= 0]
+    made, kept, lost = [], [], 0
+    for k in captured.values():          # (links broken and erased are not here)
+        a, b = (int(j) for j in id_of[links.pairs[k]])
+        try:
+            i = utils.createInteraction(a, b)
+        except RuntimeError:             # the bodies do not touch where they are now
+            lost += 1
+            continue
+        made.append((i.id1, i.id2, k, 1.0 if i.id1 == a else -1.0))
+    if made:
+        settle_forces()
+        kept = [(O.interactions[a, b], k, sign) for a, b, k, sign in made
+                if O.interactions.has(a, b) and O.interactions[a, b].isReal]
+        lost += len(made) - len(kept)
+        if offset is None:
+            offset = find_offset([i for i, _, _ in kept], SAMPLE)
+        for i, k, sign in kept:
+            _write(i, links, k, sign, offset)
+    return {"carried": len(carry), "contacts": len(kept), "contacts_lost": lost,
+            "erased": len(erase), "new": len(new)}
+
+
+def _write(i, links, k, sign, offset):
+    """Captured link k into the interaction i (sign -1: its bodies in the other order)."""
+    values = links.history[k].copy()
+    values[_VECTORS] *= sign
+    history_block(i.phys, offset)[:] = values
+    i.geom.normal = tuple(sign * links.normal[k])
+    i.phys.G = float(links.shear_modulus[k])
+    i.phys.refPD = float(links.ref_penetration[k])
+    i.phys.isCohesive = bool(links.cohesive[k])
+
+
+def lever_arms_are_radii():
+    """True when the scene's Ig2_Sphere_Sphere_ScGeom takes the radii as lever arms of the
+    shear kinematics (YADE's default, avoidGranularRatcheting), False for the contact point."""
+    yade = import_yade()
+    for e in yade.Omega().engines:
+        if isinstance(e, yade.wrapper.InteractionLoop):
+            for f in e.geomDispatcher.functors:
+                if isinstance(f, yade.wrapper.Ig2_Sphere_Sphere_ScGeom):
+                    return bool(f.avoidGranularRatcheting)
+    return True
+
+
+def _index(ids):
+    ids = np.asarray(ids, int)
+    index = np.full(ids.max(initial=-1) + 1, -1)
+    index[ids] = np.arange(len(ids))
+    return index
