@@ -144,3 +144,37 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     s = new.spheres
     s.read()
     assert np.abs(s.pos - s.ref_pos - field(s.ref_pos, 300 * block.dt)).max() < 0.02 * EPS0 * L
+
+
+@pytest.mark.parametrize("options, message", [
+    (dict(zone="grow", reinforced=True), r"^slab: zone 'grow' does not carry the bars' state"),
+    (dict(zone="grow", zone_cells=((7, 5),)), r"^slab: zone cells make a fixed zone, not one of "
+                                              r"zone 'grow'$"),
+    (dict(zone_cells=((15, 0),)), r"^slab: zone cells must be \(i, j\) indices of the slab's "
+                                  r"in-plane FE cells at scale 'small', got \(\(15, 0\),\)$"),
+    (dict(zone_cells="x"), r"^slab: zone cells must be .* got x$"),
+])
+def test_slab_refuses_bad_growing_or_fixed_cell_zones(options, message):
+    from cases.slab import SlabSpec
+    with pytest.raises(ValueError, match=message) as e:
+        SlabSpec(**options)
+    assert "\n" not in str(e.value)
+
+
+def test_a_fixed_zone_of_cells_is_that_zone(tmp_path):
+    """--zone-from DIR reads the cells the run in DIR ended with; the model's grid is made of
+    them; a run that did not end clean is refused with one line."""
+    import json
+    from cases.slab import SlabSpec
+    from cases.slab.zone import model_grid
+    from cli.commands.slab import _zone_cells
+    cells = [[6, 5], [6, 6], [7, 5], [7, 6]]
+    (tmp_path / "summary.json").write_text(json.dumps(
+        {"zone_outcome": "clean", "zone_final": {"cells": cells}}))
+    spec = SlabSpec(zone_cells=_zone_cells(tmp_path))
+    grid = model_grid(spec)
+    assert np.argwhere(grid.cells).tolist() == cells and grid.cells.sum() == 4
+    (tmp_path / "summary.json").write_text(json.dumps({"zone_outcome": "limit"}))
+    with pytest.raises(ValueError, match=r"^--zone-from .*: not a zone 'auto' or 'grow' run "
+                                         r"that ended clean \(zone_outcome 'limit'\)$"):
+        _zone_cells(tmp_path)

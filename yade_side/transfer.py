@@ -18,6 +18,7 @@ from yade_side.scene import settle_forces
 # signs follow the link's normal (from id1 to id2)
 _VECTORS = slice(7, WIDTH)
 EPS_T = slice(16, 19)
+OMEGA, KAPPA = 0, 5
 SAMPLE = 256   # links on which the history's place in memory is verified (checkpoints: all)
 
 
@@ -56,14 +57,16 @@ def capture_links(ids):
                  column(lambda i: i.phys.isCohesive).astype(bool))
 
 
-def restore_links(links, ids, old_of, shear=None):
+def restore_links(links, ids, old_of, start=None):
     """Into the current scene (its links made, its bodies `ids` where the captured ones
     are; old_of: index of each into the captured bodies, -1 for a body the old scene did not
     have): each interaction between two old bodies takes its captured history, normal, G and
     refPD, a link the old scene had lost (it broke there) is erased, a contact it had is
-    made (the old scene's bodies are all in the new one); a link with a new body gets epsT =
-    shear(ends, normal) (its ends' indices into `ids`) when `shear` is given. Returns the
-    counts of each kind. The scene must not couple inside its step (settle_forces)."""
+    made (the old scene's bodies are all in the new one); with `start`, the links with a new
+    body get (epsT (m, 3), ω (m,)) = start(ends, normal) (ends: their bodies' indices into
+    `ids`), ω with its strain history κ (damage_history).
+    Returns the counts of each kind and the new links' (id1, id2). The scene must not couple
+    inside its step (settle_forces)."""
     yade = import_yade()
     from yade import utils
     O = yade.Omega()
@@ -88,11 +91,22 @@ def restore_links(links, ids, old_of, shear=None):
     offset = find_offset([i for i, _, _ in carry] + [i for i, _, _ in new], SAMPLE)
     for i, k, sign in carry:
         _write(i, links, k, sign, offset)
-    if shear is not None and new:
+    if start is not None and new:
         ends = np.array([(j1, j2) for _, j1, j2 in new])
         normal = np.array([tuple(i.geom.normal) for i, _, _ in new])
-        for (i, _, _), eps in zip(new, shear(ends, normal)):
-            history_block(i.phys, offset)[EPS_T] = eps
+        eps_t, omega = start(ends, normal)
+        if any(i.phys.damLaw != 1 for i, _, _ in new):
+            raise ValueError("a link's damage is carried for CPM's exponential softening "
+                             "(CpmMat.damLaw 1) only")
+        omega = np.minimum(omega, 1 - 1e-9)
+        phys = [i.phys for i, _, _ in new]
+        kappa = damage_history(omega, np.array([p.epsCrackOnset for p in phys]),
+                               np.array([p.epsFracture for p in phys]))
+        for p, e, w, k in zip(phys, eps_t, omega, kappa):
+            block = history_block(p, offset)
+            block[EPS_T] = e
+            if w > 0:
+                block[OMEGA], block[KAPPA] = w, k
     # contacts: made now, their stiffness and reference set by the law at their first step
     # (a step of zero length, which leaves the links above as they are), then their history
     id_of = np.full(max(old_of.max(initial=-1), links.pairs.max(initial=-1)) + 1, -1)
@@ -115,8 +129,38 @@ def restore_links(links, ids, old_of, shear=None):
             offset = find_offset([i for i, _, _ in kept], SAMPLE)
         for i, k, sign in kept:
             _write(i, links, k, sign, offset)
-    return {"carried": len(carry), "contacts": len(kept), "contacts_lost": lost,
-            "erased": len(erase), "new": len(new)}
+    counts = {"carried": len(carry), "contacts": len(kept), "contacts_lost": lost,
+              "erased": len(erase), "new": len(new)}
+    return counts, [(i.id1, i.id2) for i, _, _ in new]
+
+
+def link_energy(pairs):
+    """(normal, shear) elastic energy of the links `pairs` (id1, id2), as the law's
+    elasticEnergy() sums it: ½ |Fn|²/kn + ½ |Fs|²/ks with the forces of the last step."""
+    O = import_yade().Omega()
+    normal = shear = 0.0
+    for a, b in pairs:
+        if O.interactions.has(a, b):
+            p = O.interactions[a, b].phys
+            normal += 0.5 * p.normalForce.squaredNorm() / p.kn
+            shear += 0.5 * p.shearForce.squaredNorm() / p.ks
+    return normal, shear
+
+
+def damage_history(omega, eps_crack, eps_fracture):
+    """κ at which CPM's exponential softening (CpmMat.damLaw 1, the default) reaches damage
+    ω: ω = 1 − (ε₀/κ) exp(−(κ − ε₀)/ε_f), increasing in κ (verified against YADE's links);
+    0 where ω = 0. Bisection, to the last bit in 200 halvings."""
+    omega = np.asarray(omega, float)
+    low, high = np.array(eps_crack, float), np.array(eps_crack, float)
+    law = lambda k: 1 - eps_crack / k * np.exp(-(k - eps_crack) / eps_fracture)
+    while (law(high) < omega).any():
+        high = np.where(law(high) < omega, 2 * high, high)
+    for _ in range(200):
+        mid = 0.5 * (low + high)
+        below = law(mid) < omega
+        low, high = np.where(below, mid, low), np.where(below, high, mid)
+    return np.where(omega > 0, high, 0.0)
 
 
 def _write(i, links, k, sign, offset):

@@ -36,7 +36,7 @@ def run_grow(spec, out, quiet=False):
 
     say = (lambda line: None) if quiet else print
     model = GrowingModel(build, grid, start, limit, spec.tensile_strength, levels,
-                         tol=1e-6 * spec.radius, log=say,
+                         tol=1e-6 * spec.radius, log=say, shear=spec.grow_shear,
                          budget=lambda segments, n: over_budget(segments, n, model, spec))
     full_spheres = len(model.scene.packs.slab_radii) + len(model.impactor_ids)
     try:
@@ -46,7 +46,7 @@ def run_grow(spec, out, quiet=False):
         stopped = out / "stopped"
         stopped.mkdir()
         for entry in list(out.iterdir()):
-            if entry != stopped:
+            if entry != stopped and not entry.name.startswith("."):    # the folder's marker
                 entry.rename(stopped / entry.name)
         outcome, limit_reached = "limit", e.reached
         message = (f"coupling cannot pay for this impact, because what the DE zone must hold "

@@ -12,10 +12,10 @@ from time import perf_counter
 
 import numpy as np
 
-from cases.slab.geometry import (fe_axes, make_packings, sensor_points, slab_bridging,
-                                 slab_grid)
+from cases.slab.geometry import fe_axes, make_packings, sensor_points, slab_bridging
 from cases.slab.reinforced import YIELD_EVERY
 from cases.slab.scales import SLAB
+from cases.slab.zone import model_grid
 from orchestrator.builder import CouplingSpec, Description, Model, assemble
 
 MODELS = ("full", "coupled")
@@ -133,14 +133,14 @@ class SlabScene:
 
 def description(spec, model, grid=None, dt=None):
     """The builder's description of the slab's `model` (full or coupled), with the DE zone
-    of `grid` (default: the spec's box, slab_grid), and the time step `dt` (default: the
+    of `grid` (default: the spec's fixed zone, model_grid), and the time step `dt` (default: the
     spec's dt_safety × the critical step)."""
     if model not in MODELS:
         raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
     if spec.elastic_outside and model != "full":
         raise ValueError("elastic_outside applies to the full model only (the coupled "
                          "model has FE outside its DE zone)")
-    grid = slab_grid(spec) if grid is None else grid
+    grid = model_grid(spec) if grid is None else grid
     bridging = slab_bridging(spec, grid)
     scene = SlabScene(spec, bridging)
 

@@ -36,36 +36,41 @@ class SlabSpec:
                          "run's own checks, each time run again from t = 0; 'grow': grown "
                          "by the same checks during the run (docs/auto-zone.md)")
     zone_start: float = key(None, number, positive, section="zone", name="start",
-                            help="auto: side (m) of a square start zone under the impact, "
+                            help="auto, grow: side (m) of a square start zone under the impact, "
                                  "rounded to the FE grid; default the box zone")
     zone_limit: float = key(None, number, positive, section="zone", name="limit",
-                            help="auto: length (m) along x of the centred full-width strip "
+                            help="auto, grow: length (m) along x of the centred full-width strip "
                                  "the zone may fill; default the slab less the supports and "
                                  "the band")
     fallback: str = key("none", choice("none", "full"), section="zone",
-                        help="auto: when the zone would pass its limit, stop ('none') or run "
+                        help="auto, grow: when the zone would pass its limit, stop ('none') or run "
                              "the full model ('full')")
     trip_stress: float = key(1.0, number, stress_level, section="zone",
-                             help="auto: an FE cell with σ1 >= this × ft trips (the FE cannot "
+                             help="auto, grow: an FE cell with σ1 >= this × ft trips (the FE cannot "
                                   "crack)")
     trip_omega: float = key(0.1, number, omega_level, section="zone",
-                            help="auto: a bridging link with damage >= this trips (the "
+                            help="auto, grow: a bridging link with damage >= this trips (the "
                                  "coupling assumes an elastic band)")
     trip_damage: float = key(0.9, number, damage_level, section="zone",
-                             help="auto, with fe.material 'damage': an FE cell with damage >= "
+                             help="auto, grow, with fe.material 'damage': an FE cell with damage >= "
                                   "this trips instead of its stress (the concrete cracked "
                                   "through there); also the post-run check's level")
     stress_every: int = key(10, integer, positive, section="zone",
-                            help="auto: steps between FE stress checks")
+                            help="auto, grow: steps between FE stress checks")
     links_every: int = key(400, integer, positive, section="zone",
-                           help="auto: steps between bridging link checks")
+                           help="auto, grow: steps between bridging link checks")
     zone_margin: int = key(1, integer, positive, section="zone", name="margin",
-                           help="auto: cells added around the flagged ones")
+                           help="auto, grow: cells added around the flagged ones")
     zone_cost: float = key(1.0, number, non_negative, section="zone", name="cost",
                            help="auto: the search stops when the spheres × steps it has run, "
                                 "plus one whole run of its last zone, reach this × the full "
-                                "model's (it can no longer be cheaper than the full run); 0: "
-                                "no such limit")
+                                "model's (it can no longer be cheaper than the full run); "
+                                "grow: when those it has run, plus the rest of the run in its "
+                                "zone, do; 0: no such limit")
+    grow_shear: bool = key(False, boolean, section="zone", name="shear",
+                           help="grow: the links of converted cells take the FE's shear strain "
+                                "(affine) too, not only its normal strain: that adds 2-3 × the "
+                                "energy the cells had (docs/auto-zone.md)")
     layers: int = key(3, integer, positive, section="coupling", help="bridging layers")
     band_ratio: float = key(None, number, positive, section="coupling",
                             help="in-plane size of the bridging band's FE cells / sphere "
@@ -135,6 +140,8 @@ class SlabSpec:
     relaxation_rule: str = None      # set by relaxation "auto": what the rule took r from
     dt_choice: dict = None           # set after dt_safety "auto": what the pre-runs found
     reinforcement: tuple = None      # the bars' layers (cases.reinforcement.Layer, checked)
+    zone_cells: tuple = None         # a fixed DE zone of in-plane cells (i, j), instead of the
+                                     # box: one a zone "auto" or "grow" run found (--zone-from)
 
     def __post_init__(self):
         check_spec(self, "slab")
@@ -171,6 +178,8 @@ class SlabSpec:
         if self.zone != "box":
             from cases.slab.zone import check
             check(self)
+        if self.zone_cells is not None:
+            self._check_cells()
         if self.relaxation == "auto" and chosen:
             from cases.slab.geometry import slab_grid
             from orchestrator.coupling.relaxation import auto_relaxation
@@ -193,6 +202,19 @@ class SlabSpec:
                     tensile_strength=self.tensile_strength,
                     compressive_strength=self.compressive_strength,
                     fracture_energy=self.fracture_energy)
+
+    def _check_cells(self):
+        if self.zone != "box":
+            raise ValueError(f"slab: zone cells make a fixed zone, not one of zone "
+                             f"{self.zone!r}")
+        from cases.slab.zone import cells_grid
+        try:
+            self.zone_cells = tuple((int(i), int(j)) for i, j in self.zone_cells)
+            cells_grid(self, self.zone_cells)
+        except (TypeError, ValueError, IndexError):
+            raise ValueError(f"slab: zone cells must be (i, j) indices of the slab's in-plane "
+                             f"FE cells at scale {self.scale!r}, got "
+                             f"{str(self.zone_cells)[:80]}") from None
 
     def _check_damage(self, material):
         if self.fracture_energy is None:

@@ -17,6 +17,11 @@ def zone_grid(base, mask):
     return Grid(base.h, base.n, lo.min(axis=0), hi.max(axis=0), (0, 1), cells=mask)
 
 
+def model_grid(spec):
+    """The grid of the coupled model of `spec` with a fixed zone: its zone_cells, or its box."""
+    return slab_grid(spec) if spec.zone_cells is None else cells_grid(spec, spec.zone_cells)
+
+
 def cells_grid(spec, cells):
     """The slab grid of `spec` with the DE zone of in-plane cells `cells` (grid indices, as
     summary.json's zone_final records them)."""

@@ -13,6 +13,9 @@ def configure(p):
                    help="full: the whole slab in spheres; coupled: DE zone + FE "
                         "(required for a new run)")
     add_spec_options(p, SlabSpec)
+    p.add_argument("--zone-from", metavar="DIR",
+                   help="a fixed DE zone: the cells of the one the zone 'auto' or 'grow' run "
+                        "in DIR ended with (its summary.json's zone_final)")
     p.add_argument("--seeds", type=_seed_list, metavar="N,N,...",
                    help="an ensemble: one run per packing seed, in DIR/seed-N (instead of --seed)")
     p.add_argument("--jobs", type=count, default=None,
@@ -35,7 +38,8 @@ def run(args):
     elif args.out and args.model:
         if args.seeds and args.seed is not None:
             raise ValueError("give either --seed or --seeds, not both")
-        spec, model = spec_from_args(slab.SlabSpec, args), args.model
+        cells = _zone_cells(args.zone_from) if args.zone_from else None
+        spec, model = spec_from_args(slab.SlabSpec, args, zone_cells=cells), args.model
         folder.check_out(args.out, args.force)      # refuse before building, not after
     else:
         raise ValueError("give --model full|coupled and --out DIR for a new run, or --resume DIR")
@@ -51,12 +55,13 @@ def run(args):
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
         if model != "coupled":
             raise ValueError(f"--model {model} has no FE part: run it without mpirun")
-        if "auto" in (spec.zone, spec.dt_safety):
-            raise ValueError("--zone auto and --dt-safety auto build the model more than "
-                             "once: run them without mpirun")
+        if spec.zone != "box" or spec.dt_safety == "auto":
+            raise ValueError(f"--zone {spec.zone} and --dt-safety auto build the model more "
+                             f"than once: run them without mpirun")
         if comm.rank > 0:
+            from cases.slab.zone import model_grid
             from fenicsx_side.distributed import serve
-            grid = slab.slab_grid(spec)
+            grid = model_grid(spec)
             serve(slab.fe_model(spec, grid, slab.fe_weight(spec, grid)))
             return 0
     from yade_side import import_yade
@@ -71,6 +76,22 @@ def run(args):
         return 1                # the one line saying why was printed
     _report(model, spec, s, out)
     return 0
+
+
+def _zone_cells(folder):
+    """The in-plane cells of the zone the automatic or growing zone run in `folder` ended
+    with."""
+    import json
+    from pathlib import Path
+    path = Path(folder) / "summary.json"
+    try:
+        summary = json.loads(path.read_text())
+    except (OSError, ValueError) as e:
+        raise ValueError(f"--zone-from {folder}: cannot read its summary.json ({e})") from None
+    if summary.get("zone_outcome") != "clean" or "zone_final" not in summary:
+        raise ValueError(f"--zone-from {folder}: not a zone 'auto' or 'grow' run that ended "
+                         f"clean (zone_outcome {summary.get('zone_outcome')!r})")
+    return summary["zone_final"]["cells"]
 
 
 def _from_checkpoint(args):

@@ -7,7 +7,9 @@ builder and given the old model's state (docs/auto-zone.md):
 - bodies new to the DE (the converted FE cells and the new band): the FE field at their
   centre, position ref + k u, velocity k v, rotation and spin h u, h v (½ curl); their links
   are made at reference positions, so the positions give them the FE's normal strain exactly,
-  and the FE's shear strain is written into them (`shear`);
+  and take the damage of the FE cell (with its strain history), and with `shear` the FE's
+  affine shear strain too (by default not: it adds 2-3 × the energy the cells had, as a
+  random packing's links under an affine shear do; docs/auto-zone.md);
 - FE nodes and cells that stay FE (matched by coordinates): u, v, t and the damage history;
 - the coupling: the band spheres' accumulated rotations (the old band's kept, the new ones'
   h u), the energy meter.
@@ -76,9 +78,10 @@ def snapshot(model):
                     (stepper.exchange.to_fe, stepper.exchange.net))
 
 
-def carry(snap, model, tol, shear=True):
-    """Put the built `model` (a grown zone) in the state of `snap`; returns what was carried
-    (counts of bodies and links)."""
+def carry(snap, model, tol, shear=False):
+    """Put the built `model` (a grown zone) in the state of `snap`; the new links take the
+    FE's damage, and with `shear` its affine shear strain. Returns what was carried (counts
+    of bodies and links) and the new links (id pairs)."""
     from yade_side.bulk import rotation_quaternion
     from yade_side.transfer import lever_arms_are_radii, restore_links
     old_fe, fe = snap.fe, model.fe
@@ -100,20 +103,26 @@ def carry(snap, model, tol, shear=True):
     radius = np.concatenate([b.radius for b in model.energy_bodies])
     radii_levers = lever_arms_are_radii()
 
-    def affine_shear(ends, normal):
-        """epsT of links under the old FE's displacement gradient G at their new end: the
-        tangential part of G n − (lever / L) W n (W = skew G: the spheres turn with ½ curl u
-        and the law's lever arms are the radii, or the contact point's L)."""
-        new_end = np.where(old_of[ends[:, 0]] < 0, ends[:, 0], ends[:, 1])
-        G = old_fe.gradient_at(ref[new_end])
+    def fe_state(ends, normal):
+        """(epsT, ω) of links from the old FE at their new end: ω the damage of the FE cell
+        there; epsT zero, or with `shear` the tangential part of G n − (lever / L) W n under
+        the displacement gradient G (W = skew G: the spheres turn with ½ curl u, and the
+        law's lever arms are the radii, or the contact point's L)."""
+        at = ref[np.where(old_of[ends[:, 0]] < 0, ends[:, 0], ends[:, 1])]
+        omega = (old_fe.damage[old_fe.locate(at)[0]] if old_fe.carries_damage
+                 else np.zeros(len(at)))
+        if not shear:
+            return np.zeros_like(normal), omega
+        G = old_fe.gradient_at(at)
         W = 0.5 * (G - G.transpose(0, 2, 1))
         length = np.linalg.norm(ref[ends[:, 1]] - ref[ends[:, 0]], axis=1)
         lever = radius[ends].sum(axis=1) if radii_levers else length
         t = (np.einsum("pab,pb->pa", G, normal)
              - (lever / length)[:, None] * np.einsum("pab,pb->pa", W, normal))
-        return t - np.einsum("pa,pa->p", t, normal)[:, None] * normal
+        return t - np.einsum("pa,pa->p", t, normal)[:, None] * normal, omega
 
-    counts = restore_links(snap.links, ids, old_of, affine_shear if shear else None)
+
+    counts, new_links = restore_links(snap.links, ids, old_of, fe_state)
     nodes = match(old_fe.nodes, fe.nodes, tol)
     cells = match(_centres(old_fe), _centres(fe), tol)
     if (nodes < 0).any() or (cells < 0).any():
@@ -131,7 +140,7 @@ def carry(snap, model, tol, shear=True):
     bridge.read()
     model.stepper.exchange.to_fe, model.stepper.exchange.net = snap.exchange
     return {"bodies_kept": int(np.count_nonzero(old_of >= 0)), "bodies_added": int(len(added)),
-            **{f"links_{k}": v for k, v in counts.items()}}
+            **{f"links_{k}": v for k, v in counts.items()}}, new_links
 
 
 def _centres(fe):
@@ -142,12 +151,14 @@ class GrowingModel:
     """A coupled model whose DE zone grows during the run (orchestrator.contracts.RunModel:
     the run loop steps it as any model). build(mask) -> Model: the model of a zone (a mask
     of `grid`), every one with the run's time step; the zone grows at each trip over the
-    flagged cells and `levels.margin` more, inside `limit`; budget(conversions, steps) says
-    why growing cannot pay (None if it can). Listeners in `on_grow` are told (old, new, k)
-    after the k-th conversion. Reads of attributes go to the current model."""
+    flagged cells and `levels.margin` more, inside `limit`; budget(segments, n) says why
+    growing at step n cannot pay (None if it can; segments: (spheres, steps) of each zone
+    run so far). Bodies, nodes and cells of two models match within `tol` (m); `shear`:
+    see carry. Listeners in `on_grow` are told (old, new, k) after the k-th conversion.
+    Reads of attributes go to the current model."""
 
     def __init__(self, build, grid, zone, limit, tensile_strength, levels, tol, budget=None,
-                 log=print, shear=True):
+                 log=print, shear=False):
         t0 = perf_counter()
         self.__dict__.update(build=build, cell_grid=grid, limit=limit, ft=tensile_strength,
                              levels=levels, tol=tol, budget=budget, log=log, shear=shear)
@@ -190,6 +201,7 @@ class GrowingModel:
         """Convert the cells `tripped` flags, and `levels.margin` more, and go on in the model
         of the grown zone; ZoneLimit if the zone cannot grow so."""
         from yade_side.scene import settle_forces
+        from yade_side.transfer import link_energy
         t0 = perf_counter()
         grid, old, n = self.cell_grid, self.current, self.watch.steps
         grown = (self.zone | grid.dilate(tripped.cells, self.levels.margin)) & self.limit
@@ -208,10 +220,11 @@ class GrowingModel:
         self._earlier = {k: self._earlier.get(k, 0.0) + seconds.get(k, 0.0)
                          for k in {*seconds, *self._earlier}}
         new = self.build(grown)
-        carried = carry(snap, new, self.tol, self.shear)
+        carried, new_links = carry(snap, new, self.tol, self.shear)
         self._bind_sensors(new)
         settle_forces()
         after = new.energy_parts()
+        normal, shear = link_energy(new_links)
         energy_before, energy_after = sum(before.values()), sum(after.values())
         self.watch = Watch(new, grid, self.ft, self.levels)
         self.watch.steps = n
@@ -223,6 +236,7 @@ class GrowingModel:
             "spheres_added": carried["bodies_added"], "spheres": int(new.sphere_count()),
             "energy_before": energy_before, "energy_after": energy_after,
             "energy_parts_before": before, "energy_parts_after": after,
+            "new_links_energy": {"normal": normal, "shear": shear},
             "carried": carried, "wall_s": perf_counter() - t0})
         line = (f"zone grown at step {n} ({tripped.indicator}): {int(grown.sum())} cells, "
                 f"{new.sphere_count()} spheres (+{carried['bodies_added']}); energy "
