@@ -212,8 +212,10 @@ class Model:
         """Sensors on spheres (indices into `spheres`), then on FE nodes, in `names` order;
         or, with `order`, sensor j is the order[j]-th of those."""
         from yade_side.bulk import BodySet
+        spheres = np.asarray(spheres, int)
         self.sensor_names = list(names)
-        self._sensor_spheres = BodySet(self.spheres.ids[np.asarray(spheres, int)])
+        self._sensor_spheres = BodySet(self.spheres.ids[spheres])
+        self._sensor_spheres.ref_pos = self.spheres.ref_pos[spheres].copy()   # set mid-run too
         self._sensor_nodes = np.asarray(nodes, int)
         self.sensor_positions = np.asarray(positions, float).reshape(-1, 3)
         self.sensor_order = None if order is None else np.asarray(order, int)

@@ -104,6 +104,13 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     from yade_side.scene import settle_forces
     K = lattice_bulk_modulus()
     block, grid, young = growing_block(K)
+    first = block.current
+    # sensors: the zone's first sphere, and an FE node of a cell that will convert (then
+    # read from the sphere nearest it)
+    node = int(np.argmin(np.linalg.norm(first.fe.nodes - H * np.array([4, 6, 6]), axis=1)))
+    assert np.allclose(first.fe.nodes[node], H * np.array([4, 6, 6]))
+    first.set_sensors(["sphere", "node"], [0], [node],
+                      [first.spheres.ref_pos[0], first.fe.nodes[node]])
     exact = 3 * K * EPS0
     link_exact = SCENE.contact_young * EPS0        # a link's σN under ε₀ I
     zone_stress = []
@@ -140,10 +147,15 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     # then the new band's discretisation moves them as it moved the first zone's links from
     # t = 0 (measured: 2.4 % at most after the conversion, 6 % before it)
     assert np.abs(np.array(converted_stress) - 1).max() < np.abs(np.array(zone_stress) - 1).max()
-    # the body moves on with its velocity: every sphere at ref + ε₀ ref + v₀ t
-    s = new.spheres
+    # the body moves on with its velocity: every sphere at ref + ε₀ ref + v₀ t, and so do
+    # the sensors, the node's now read from a sphere
+    s, t = new.spheres, 300 * block.dt
     s.read()
-    assert np.abs(s.pos - s.ref_pos - field(s.ref_pos, 300 * block.dt)).max() < 0.02 * EPS0 * L
+    assert np.abs(s.pos - s.ref_pos - field(s.ref_pos, t)).max() < 0.02 * EPS0 * L
+    assert new.sensor_names == ["sphere", "node"] and len(new._sensor_nodes) == 0
+    # (the sphere nearest the node is √3 R from it at most: ε₀ √3 R apart in the field)
+    assert np.abs(new.sensor_displacements() - field(new.sensor_positions, t)).max() < \
+        0.02 * EPS0 * L + EPS0 * np.sqrt(3) * R
 
 
 @pytest.mark.parametrize("options, message", [

@@ -47,6 +47,9 @@ class Run:
                 raise FileNotFoundError(f"{self.folder} has no {name}: not a finished slab run")
         self.model, self.spec = self.summary["model"], self.summary["spec"]
         self.spec.setdefault("concrete", "plain")    # runs made before the choice existed
+        if self.spec.get("zone") == "grow" and self.spec.get("zone_start") is not None:
+            # a growing zone reads the sensors of its start zone: a square of side zone_start
+            self.spec.update(de_zone=self.spec["zone_start"], full_width=False)
         self.seed = self.spec.get("seed", 1)
         self.t, self.names, self.h = read_sensors(self.folder / "sensors.csv")
         with np.load(self.folder / "damage.npz") as d:

@@ -173,7 +173,7 @@ class GrowingModel:
         self.segments = []              # (spheres, steps) of each zone run
         self._earlier = {}              # time split of the earlier models
         self.peaks = {"stress": 0.0, "omega": 0.0, "damage": 0.0}
-        self._bind_sensors = _sensor_binding(self.current)
+        self._bind_sensors = None       # the first model's sensors, at its first growth
         self.build_s = perf_counter() - t0
 
     def __getattr__(self, name):
@@ -215,6 +215,8 @@ class GrowingModel:
         settle_forces()
         before = old.energy_parts()
         snap = snapshot(old)
+        if self._bind_sensors is None:
+            self._bind_sensors = _sensor_binding(old)
         self.segments.append((old.sphere_count(), n - sum(s for _, s in self.segments)))
         seconds = old.seconds
         self._earlier = {k: self._earlier.get(k, 0.0) + seconds.get(k, 0.0)
