@@ -11,11 +11,12 @@ import pytest
 
 R = 0.005                     # sphere radius (m): lattice spacing 2R
 H = 4 * R                     # FE cells: 2 × 2 × 2 spheres each
-N = 12                        # cells along each side of the cube
+N = 9                         # cells along each side of the cube
 L = N * H
 EPS0 = 2e-4                   # hydrostatic strain
 V0 = np.array([0.3, -0.2, 0.4])   # m/s
 NU = 0.25                     # the FE's Poisson ratio (the lattice's K is what must match)
+PRE = 60                      # steps before the conversion
 SCENE = SimpleNamespace(packing="cubic", de_hi=np.full(3, L), radius=R, contact_young=33e9,
                         contact_poisson=0.2, density=2400.0)
 
@@ -69,19 +70,11 @@ def growing_block(K):
         return m
 
     start = np.zeros(grid.shape, bool)
-    start[5:7, 5:7, 5:7] = True
-    limit = grid.dilate(start, 3)
+    start[4, 4, 4] = True
+    limit = grid.dilate(start, 2)
     block = GrowingModel(build, grid, start, limit, np.inf, TripLevels(), tol=1e-9,
                          log=lambda line: None)
-    m = block.current
-    s = m.spheres
-    s.read()
-    s.pos[:] = s.ref_pos + field(s.ref_pos, 0.0)
-    s.vel[:] = V0
-    s.write()
-    fe = m.fe.fe                  # the FE model inside its prescribed-motion wrapper
-    fe.u = field(fe.nodes, 0.0).ravel()
-    fe.v = np.tile(V0, len(fe.nodes))
+    start_exact(block.current, 0.0)
     return block, grid, young
 
 
@@ -99,7 +92,24 @@ def link_stress(ids):
                     if i.isReal and i.id1 in ids and i.id2 in ids])
 
 
+def start_exact(model, t):
+    """The model in the exact state u = ε₀ x + v₀ t (spheres, FE nodes)."""
+    s = model.spheres
+    s.read()
+    s.pos[:] = s.ref_pos + field(s.ref_pos, t)
+    s.vel[:] = V0
+    s.write()
+    fe = model.fe.fe              # the FE model inside its prescribed-motion wrapper
+    fe.u = field(fe.nodes, t).ravel()
+    fe.v = np.tile(V0, len(fe.nodes))
+    fe.t = t
+
+
 def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when_cells_convert():
+    """Converted mid-run, the block keeps its energy within 1 % over 200 further steps and
+    its FE stress within 2 %; the converted links' stress follows, within 2 %, what the model
+    of the grown zone does when started in the exact state at that time: the conversion's
+    own error, apart from the band's discretisation, which swings both by a few %."""
     from orchestrator.run.autozone import Tripped
     from yade_side.scene import settle_forces
     K = lattice_bulk_modulus()
@@ -107,55 +117,57 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     first = block.current
     # sensors: the zone's first sphere, and an FE node of a cell that will convert (then
     # read from the sphere nearest it)
-    node = int(np.argmin(np.linalg.norm(first.fe.nodes - H * np.array([4, 6, 6]), axis=1)))
-    assert np.allclose(first.fe.nodes[node], H * np.array([4, 6, 6]))
+    node = int(np.argmin(np.linalg.norm(first.fe.nodes - H * np.array([3, 4, 4]), axis=1)))
+    assert np.allclose(first.fe.nodes[node], H * np.array([3, 4, 4]))
     first.set_sensors(["sphere", "node"], [0], [node],
                       [first.spheres.ref_pos[0], first.fe.nodes[node]])
     exact = 3 * K * EPS0
     link_exact = SCENE.contact_young * EPS0        # a link's σN under ε₀ I
-    zone_stress = []
-    for _ in range(100):
+    for _ in range(PRE):
         block.step()
-        m = block.current
-        zone_stress.append(link_stress(m.spheres.ids[m.in_de_zone]) / link_exact)
     old = block.current
     # the FE before: σ = 3 K ε₀ I on average (cell by cell to the band's discretisation)
     assert np.abs(mean_stress(old) / exact - np.eye(3)).max() < 0.02
     settle_forces()
     before = old.energy()
-    # the FE cells just outside the band trip: with their margin, three cell layers convert
-    block.grow(Tripped(100, "test", grid.dilate(block.zone, 2) & ~grid.dilate(block.zone, 1)))
+    # the FE cells just outside the band trip: with their margin, two cell layers convert
+    block.grow(Tripped(PRE, "test", grid.dilate(block.zone, 2) & ~grid.dilate(block.zone, 1)))
     new = block.current
     record = block.conversions[-1]
-    assert record["cells"] == 8 ** 3 and record["spheres_added"] == 20 ** 3 - 8 ** 3
+    assert record["cells"] == 5 ** 3 and record["spheres_added"] == 14 ** 3 - 6 ** 3
     assert record["energy_before"] == pytest.approx(before, rel=1e-12)
     energies = [record["energy_after"]]
     # the converted cells that are DE zone now: their links carry the FE's strain
     was = (np.abs(new.spheres.ref_pos[:, None, :] - old.spheres.ref_pos[None]).max(axis=2)
            < 1e-9).any(axis=1)
     converted = new.spheres.ids[new.in_de_zone & ~was]
-    assert len(converted) == 8 ** 3 * 8 - 4 ** 3 * 8 - 2 ** 3 * 8 + 2 ** 3 * 8
-    converted_stress = [link_stress(converted) / link_exact]
-    assert abs(converted_stress[0] - 1) < 0.02
+    assert len(converted) == (5 ** 3 - 3 ** 3) * 8
+    assert abs(link_stress(converted) / link_exact - 1) < 0.02
+    stress = []
     for _ in range(200):
         block.step()
         energies.append(new.energy())
-        converted_stress.append(link_stress(converted) / link_exact)
+        stress.append(link_stress(converted) / link_exact)
     assert np.abs(mean_stress(new) / exact - np.eye(3)).max() < 0.02
-    # the energy across the conversion and over 200 steps
     assert np.abs(np.array(energies) / before - 1).max() < 0.01
-    # then the new band's discretisation moves them as it moved the first zone's links from
-    # t = 0 (measured: 2.4 % at most after the conversion, 6 % before it)
-    assert np.abs(np.array(converted_stress) - 1).max() < np.abs(np.array(zone_stress) - 1).max()
     # the body moves on with its velocity: every sphere at ref + ε₀ ref + v₀ t, and so do
     # the sensors, the node's now read from a sphere
-    s, t = new.spheres, 300 * block.dt
+    s, t = new.spheres, (PRE + 200) * block.dt
     s.read()
     assert np.abs(s.pos - s.ref_pos - field(s.ref_pos, t)).max() < 0.02 * EPS0 * L
     assert new.sensor_names == ["sphere", "node"] and len(new._sensor_nodes) == 0
     # (the sphere nearest the node is √3 R from it at most: ε₀ √3 R apart in the field)
     assert np.abs(new.sensor_displacements() - field(new.sensor_positions, t)).max() < \
         0.02 * EPS0 * L + EPS0 * np.sqrt(3) * R
+    # the grown zone's model started exactly at the conversion's time
+    reference = block.build(block.zone)
+    start_exact(reference, PRE * block.dt)
+    same = reference.spheres.ids[reference.in_de_zone & ~was]
+    exact_start = []
+    for _ in range(200):
+        reference.step()
+        exact_start.append(link_stress(same) / link_exact)
+    assert np.abs(np.array(stress) - np.array(exact_start)).max() < 0.02
 
 
 @pytest.mark.parametrize("options, message", [
@@ -190,3 +202,51 @@ def test_a_fixed_zone_of_cells_is_that_zone(tmp_path):
     with pytest.raises(ValueError, match=r"^--zone-from .*: not a zone 'auto' or 'grow' run "
                                          r"that ended clean \(zone_outcome 'limit'\)$"):
         _zone_cells(tmp_path)
+
+
+def test_history_blocks_read_and_write_what_yades_python_view_reads():
+    """The CPM history of many links in one gather/scatter (yade_side.memory.HistoryBlocks)
+    is what Python reads of each, bit for bit, and a write is read back so."""
+    from yade_side import import_yade
+    from yade_side.material import ConcreteParams, cpm_material
+    from yade_side.memory import HistoryBlocks, find_offset, history_values, same_bits
+    from yade_side.packing import add_spheres
+    from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
+    yade = import_yade()
+    O = yade.Omega()
+    reset_scene()
+    centres = np.array([[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0.01, 0.01, 0.002]])
+    add_spheres(centres, np.full(4, 0.005), cpm_material(ConcreteParams(), 0.6))
+    cpm_engines(dt=1e-7)
+    create_cohesive_links()
+    O.bodies[1].state.vel = yade.Vector3(1.0, 0.3, -0.2)       # stretches and shears links
+    for _ in range(60):
+        O.step()
+    links = [i for i in O.interactions if i.isReal]
+    phys = [i.phys for i in links]
+    assert len(links) == 6 and max(p.omega for p in phys) > 0
+    blocks = HistoryBlocks(phys, find_offset(links))
+    values = blocks.read()
+    assert same_bits(values, [history_values(p) for p in phys])
+    values[:, 16:19] += 1e-5                       # epsT
+    blocks.write(values)
+    assert same_bits(values, [history_values(p) for p in phys])
+
+
+def test_affine_shear_strain_of_links():
+    """epsT is the tangential relative displacement over the link's length (measured on
+    YADE: a velocity δ/Δt for one step gives δ/refLength): nil under a rigid rotation with
+    contact-point arms, (ε n)_t under a pure strain, and the rotation's part (1 − r) W n with
+    arms r L."""
+    from orchestrator.run.grow import affine_shear_strain
+    rng = np.random.default_rng(3)
+    n = rng.normal(size=(50, 3))
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    B = rng.normal(size=(50, 3, 3)) * 1e-4
+    eps, W = 0.5 * (B + B.transpose(0, 2, 1)), 0.5 * (B - B.transpose(0, 2, 1))
+    tangential = lambda v: v - np.einsum("pa,pa->p", v, n)[:, None] * n
+    assert np.abs(affine_shear_strain(W, n, np.ones(50))).max() < 1e-20
+    assert np.allclose(affine_shear_strain(eps, n, np.full(50, 0.7)),
+                       tangential(np.einsum("pab,pb->pa", eps, n)), rtol=1e-12, atol=1e-19)
+    assert np.allclose(affine_shear_strain(W, n, np.full(50, 0.7)),
+                       tangential(0.3 * np.einsum("pab,pb->pa", W, n)), rtol=1e-12, atol=1e-19)

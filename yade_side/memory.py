@@ -168,6 +168,36 @@ def history_block(phys, offset):
     return np.ctypeslib.as_array((ctypes.c_double * WIDTH).from_address(address + 8 * offset))
 
 
+class HistoryBlocks:
+    """The history blocks of a list of CpmPhys, read and written by one numpy gather/scatter
+    (a view from the lowest address to the highest; the wrappers are kept, so the C++
+    objects outlive it). Only while the scene holds those links."""
+
+    def __init__(self, phys, offset):
+        self._phys = list(phys)
+        addresses = np.array([state_address(p) for p in self._phys], dtype=object)
+        if any(a is None for a in addresses):
+            raise CheckpointError("cannot locate a CpmPhys in memory: unexpected boost.python "
+                                  "layout")
+        addresses = addresses.astype(np.int64) + 8 * offset
+        if (addresses % 8).any():
+            raise CheckpointError("a CpmPhys is not 8-byte aligned in memory")
+        self._index = np.empty((0, WIDTH), np.int64)
+        self._view = np.empty(0)
+        if len(addresses):
+            base = int(addresses.min())
+            span = int(addresses.max() - base) // 8 + WIDTH
+            self._index = (addresses - base)[:, None] // 8 + np.arange(WIDTH)
+            self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
+
+    def read(self):
+        return self._view[self._index]
+
+    def write(self, values, rows=None):
+        index = self._index if rows is None else self._index[rows]
+        self._view[index] = values
+
+
 def same_bits(a, b):
     """Bit-for-bit equality of two float arrays."""
     return np.array_equal(np.asarray(a, float).view(np.int64), np.asarray(b, float).view(np.int64))

@@ -1,8 +1,8 @@
 """A scene's state carried into another scene of the same packing (the model of a grown DE
 zone, built afresh): bodies by a correspondence the caller gives, and their CPM
 interactions with their history (yade_side.memory: O.save does not keep it, nor would a
-rebuilt scene): links broken in the old scene are erased in the new, and the new links get
-their shear strain. Frictional contacts (the impactor on the slab, a broken link closed
+rebuilt scene): links broken in the old scene are erased in the new, and the new links may
+be given a shear strain. Frictional contacts (the impactor on the slab, a broken link closed
 again) are made again with their reference penetration: one the collider made anew would
 take the current penetration as its reference and start without force.
 """
@@ -11,14 +11,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from yade_side import import_yade
-from yade_side.memory import WIDTH, find_offset, history_block
+from yade_side.memory import WIDTH, HistoryBlocks, find_offset
 from yade_side.scene import settle_forces
 
 # the 19 history doubles (memory.HISTORY): 7 scalars, then sigmaT, Fs, epsTPl, epsT, whose
 # signs follow the link's normal (from id1 to id2)
 _VECTORS = slice(7, WIDTH)
 EPS_T = slice(16, 19)
-OMEGA, KAPPA = 0, 5
 SAMPLE = 256   # links on which the history's place in memory is verified (checkpoints: all)
 
 
@@ -49,22 +48,26 @@ def capture_links(ids):
     index = _index(ids)
     links = _cpm(yade.Omega(), yade, index)
     offset = find_offset(links, SAMPLE)
-    column = lambda get: np.array([get(i) for i in links])
-    return Links(column(lambda i: (index[i.id1], index[i.id2])).reshape(-1, 2).astype(int),
-                 column(lambda i: history_block(i.phys, offset)).reshape(-1, WIDTH),
-                 column(lambda i: tuple(i.geom.normal)).reshape(-1, 3),
-                 column(lambda i: i.phys.G), column(lambda i: i.phys.refPD),
-                 column(lambda i: i.phys.isCohesive).astype(bool))
+    pairs, phys, normal, scalars = [], [], [], []
+    for i in links:
+        p = i.phys
+        pairs.append((index[i.id1], index[i.id2]))
+        phys.append(p)
+        normal.append(tuple(i.geom.normal))
+        scalars.append((p.G, p.refPD, p.isCohesive))
+    scalars = np.array(scalars, float).reshape(-1, 3)
+    history = HistoryBlocks(phys, offset).read() if phys else np.empty((0, WIDTH))
+    return Links(np.array(pairs, int).reshape(-1, 2), history, np.array(normal).reshape(-1, 3),
+                 scalars[:, 0], scalars[:, 1], scalars[:, 2].astype(bool))
 
 
-def restore_links(links, ids, old_of, start=None):
+def restore_links(links, ids, old_of, shear=None):
     """Into the current scene (its links made, its bodies `ids` where the captured ones
     are; old_of: index of each into the captured bodies, -1 for a body the old scene did not
     have): each interaction between two old bodies takes its captured history, normal, G and
     refPD, a link the old scene had lost (it broke there) is erased, a contact it had is
-    made (the old scene's bodies are all in the new one); with `start`, the links with a new
-    body get (epsT (m, 3), ω (m,)) = start(ends, normal) (ends: their bodies' indices into
-    `ids`), ω with its strain history κ (damage_history).
+    made (the old scene's bodies are all in the new one); with `shear`, the links with a
+    new body get epsT = shear(ends, normal) (ends: their bodies' indices into `ids`).
     Returns the counts of each kind and the new links' (id1, id2). The scene must not couple
     inside its step (settle_forces)."""
     yade = import_yade()
@@ -89,24 +92,14 @@ def restore_links(links, ids, old_of, start=None):
     for pair in erase:
         O.interactions.erase(*pair)
     offset = find_offset([i for i, _, _ in carry] + [i for i, _, _ in new], SAMPLE)
-    for i, k, sign in carry:
-        _write(i, links, k, sign, offset)
-    if start is not None and new:
+    _write(carry, links, offset)
+    if shear is not None and new:
         ends = np.array([(j1, j2) for _, j1, j2 in new])
         normal = np.array([tuple(i.geom.normal) for i, _, _ in new])
-        eps_t, omega = start(ends, normal)
-        if any(i.phys.damLaw != 1 for i, _, _ in new):
-            raise ValueError("a link's damage is carried for CPM's exponential softening "
-                             "(CpmMat.damLaw 1) only")
-        omega = np.minimum(omega, 1 - 1e-9)
-        phys = [i.phys for i, _, _ in new]
-        kappa = damage_history(omega, np.array([p.epsCrackOnset for p in phys]),
-                               np.array([p.epsFracture for p in phys]))
-        for p, e, w, k in zip(phys, eps_t, omega, kappa):
-            block = history_block(p, offset)
-            block[EPS_T] = e
-            if w > 0:
-                block[OMEGA], block[KAPPA] = w, k
+        blocks = HistoryBlocks([i.phys for i, _, _ in new], offset)
+        values = blocks.read()
+        values[:, EPS_T] = shear(ends, normal)
+        blocks.write(values)
     # contacts: made now, their stiffness and reference set by the law at their first step
     # (a step of zero length, which leaves the links above as they are), then their history
     id_of = np.full(max(old_of.max(initial=-1), links.pairs.max(initial=-1)) + 1, -1)
@@ -127,8 +120,7 @@ def restore_links(links, ids, old_of, start=None):
         lost += len(made) - len(kept)
         if offset is None:
             offset = find_offset([i for i, _, _ in kept], SAMPLE)
-        for i, k, sign in kept:
-            _write(i, links, k, sign, offset)
+        _write(kept, links, offset)
     counts = {"carried": len(carry), "contacts": len(kept), "contacts_lost": lost,
               "erased": len(erase), "new": len(new)}
     return counts, [(i.id1, i.id2) for i, _, _ in new]
@@ -140,38 +132,33 @@ def link_energy(pairs):
     O = import_yade().Omega()
     normal = shear = 0.0
     for a, b in pairs:
-        if O.interactions.has(a, b):
+        if O.interactions.has(a, b) and O.interactions[a, b].isReal:   # else broken now
             p = O.interactions[a, b].phys
             normal += 0.5 * p.normalForce.squaredNorm() / p.kn
             shear += 0.5 * p.shearForce.squaredNorm() / p.ks
     return normal, shear
 
 
-def damage_history(omega, eps_crack, eps_fracture):
-    """κ at which CPM's exponential softening (CpmMat.damLaw 1, the default) reaches damage
-    ω: ω = 1 − (ε₀/κ) exp(−(κ − ε₀)/ε_f), increasing in κ (verified against YADE's links);
-    0 where ω = 0. Bisection, to the last bit in 200 halvings."""
-    omega = np.asarray(omega, float)
-    low, high = np.array(eps_crack, float), np.array(eps_crack, float)
-    law = lambda k: 1 - eps_crack / k * np.exp(-(k - eps_crack) / eps_fracture)
-    while (law(high) < omega).any():
-        high = np.where(law(high) < omega, 2 * high, high)
-    for _ in range(200):
-        mid = 0.5 * (low + high)
-        below = law(mid) < omega
-        low, high = np.where(below, mid, low), np.where(below, high, mid)
-    return np.where(omega > 0, high, 0.0)
-
-
-def _write(i, links, k, sign, offset):
-    """Captured link k into the interaction i (sign -1: its bodies in the other order)."""
-    values = links.history[k].copy()
-    values[_VECTORS] *= sign
-    history_block(i.phys, offset)[:] = values
-    i.geom.normal = tuple(sign * links.normal[k])
-    i.phys.G = float(links.shear_modulus[k])
-    i.phys.refPD = float(links.ref_penetration[k])
-    i.phys.isCohesive = bool(links.cohesive[k])
+def _write(items, links, offset):
+    """Captured links into interactions: items (interaction, k, sign), link k of `links`
+    into the interaction (sign -1: its bodies in the other order). The history in one
+    scatter; the normal of every one; G, refPD and isCohesive where they differ from a link
+    made at reference positions (released shear, a contact)."""
+    if not items:
+        return
+    k = np.array([k for _, k, _ in items])
+    sign = np.array([s for _, _, s in items])
+    values = links.history[k]
+    values[:, _VECTORS] *= sign[:, None]
+    HistoryBlocks([i.phys for i, _, _ in items], offset).write(values)
+    normal = links.normal[k] * sign[:, None]
+    for (i, j, _), n in zip(items, normal):
+        i.geom.normal = tuple(n)
+        if links.shear_modulus[j] == 0:
+            i.phys.G = 0.0
+        if not links.cohesive[j]:
+            i.phys.isCohesive = False
+            i.phys.refPD = float(links.ref_penetration[j])
 
 
 def lever_arms_are_radii():

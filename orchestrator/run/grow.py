@@ -6,10 +6,11 @@ builder and given the old model's state (docs/auto-zone.md):
   the CPM history, and a link the old scene had lost (broken) is erased;
 - bodies new to the DE (the converted FE cells and the new band): the FE field at their
   centre, position ref + k u, velocity k v, rotation and spin h u, h v (½ curl); their links
-  are made at reference positions, so the positions give them the FE's normal strain exactly,
-  and take the damage of the FE cell (with its strain history), and with `shear` the FE's
-  affine shear strain too (by default not: it adds 2-3 × the energy the cells had, as a
-  random packing's links under an affine shear do; docs/auto-zone.md);
+  are made at reference positions, so the positions give them the FE's normal strain
+  exactly, and CPM damages them from that strain at their first step (along each link's
+  own direction); with `shear` they take the FE's affine shear strain too (by default not:
+  it adds 2-3 × the energy the cells had, as a random packing's links under an affine shear
+  do; docs/auto-zone.md);
 - FE nodes and cells that stay FE (matched by coordinates): u, v, t and the damage history;
 - the coupling: the band spheres' accumulated rotations (the old band's kept, the new ones'
   h u), the energy meter.
@@ -79,9 +80,9 @@ def snapshot(model):
 
 
 def carry(snap, model, tol, shear=False):
-    """Put the built `model` (a grown zone) in the state of `snap`; the new links take the
-    FE's damage, and with `shear` its affine shear strain. Returns what was carried (counts
-    of bodies and links) and the new links (id pairs)."""
+    """Put the built `model` (a grown zone) in the state of `snap` (with `shear`, the new
+    links take the FE's affine shear strain); returns what was carried (counts of bodies and
+    links) and the new links (id pairs)."""
     from yade_side.bulk import rotation_quaternion
     from yade_side.transfer import lever_arms_are_radii, restore_links
     old_fe, fe = snap.fe, model.fe
@@ -103,26 +104,14 @@ def carry(snap, model, tol, shear=False):
     radius = np.concatenate([b.radius for b in model.energy_bodies])
     radii_levers = lever_arms_are_radii()
 
-    def fe_state(ends, normal):
-        """(epsT, ω) of links from the old FE at their new end: ω the damage of the FE cell
-        there; epsT zero, or with `shear` the tangential part of G n − (lever / L) W n under
-        the displacement gradient G (W = skew G: the spheres turn with ½ curl u, and the
-        law's lever arms are the radii, or the contact point's L)."""
-        at = ref[np.where(old_of[ends[:, 0]] < 0, ends[:, 0], ends[:, 1])]
-        omega = (old_fe.damage[old_fe.locate(at)[0]] if old_fe.carries_damage
-                 else np.zeros(len(at)))
-        if not shear:
-            return np.zeros_like(normal), omega
-        G = old_fe.gradient_at(at)
-        W = 0.5 * (G - G.transpose(0, 2, 1))
+    def affine_shear(ends, normal):
+        """epsT of links under the old FE's displacement gradient at their new end."""
+        G = old_fe.gradient_at(ref[np.where(old_of[ends[:, 0]] < 0, ends[:, 0], ends[:, 1])])
         length = np.linalg.norm(ref[ends[:, 1]] - ref[ends[:, 0]], axis=1)
         lever = radius[ends].sum(axis=1) if radii_levers else length
-        t = (np.einsum("pab,pb->pa", G, normal)
-             - (lever / length)[:, None] * np.einsum("pab,pb->pa", W, normal))
-        return t - np.einsum("pa,pa->p", t, normal)[:, None] * normal, omega
+        return affine_shear_strain(G, normal, lever / length)
 
-
-    counts, new_links = restore_links(snap.links, ids, old_of, fe_state)
+    counts, new_links = restore_links(snap.links, ids, old_of, affine_shear if shear else None)
     nodes = match(old_fe.nodes, fe.nodes, tol)
     cells = match(_centres(old_fe), _centres(fe), tol)
     if (nodes < 0).any() or (cells < 0).any():
@@ -141,6 +130,17 @@ def carry(snap, model, tol, shear=False):
     model.stepper.exchange.to_fe, model.stepper.exchange.net = snap.exchange
     return {"bodies_kept": int(np.count_nonzero(old_of >= 0)), "bodies_added": int(len(added)),
             **{f"links_{k}": v for k, v in counts.items()}}, new_links
+
+
+def affine_shear_strain(G, normal, lever_ratio):
+    """CPM's shear strain epsT of links of normal n (from id1 to id2) whose spheres moved with
+    the displacement gradient G and turned with it (W = skew G, ½ curl u): the tangential part
+    of G n − r W n, r = lever arms / link length (1 with the contact point's arms: a rigid
+    rotation then strains no link; (r₁ + r₂)/L with YADE's default radii arms)."""
+    W = 0.5 * (G - G.transpose(0, 2, 1))
+    t = (np.einsum("pab,pb->pa", G, normal)
+         - np.asarray(lever_ratio)[:, None] * np.einsum("pab,pb->pa", W, normal))
+    return t - np.einsum("pa,pa->p", t, normal)[:, None] * normal
 
 
 def _centres(fe):
