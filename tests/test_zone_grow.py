@@ -134,7 +134,8 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     block.grow(Tripped(PRE, "test", grid.dilate(block.zone, 2) & ~grid.dilate(block.zone, 1)))
     new = block.current
     record = block.conversions[-1]
-    assert record["cells"] == 5 ** 3 and record["spheres_added"] == 14 ** 3 - 6 ** 3
+    assert record["zone_cells"] == 5 ** 3 and len(record["cells"]) == 5 ** 3 - 1
+    assert record["spheres_added"] == 14 ** 3 - 6 ** 3
     assert record["energy_before"] == pytest.approx(before, rel=1e-12)
     energies = [record["energy_after"]]
     # the converted cells that are DE zone now: their links carry the FE's strain
@@ -250,3 +251,35 @@ def test_affine_shear_strain_of_links():
                        tangential(np.einsum("pab,pb->pa", eps, n)), rtol=1e-12, atol=1e-19)
     assert np.allclose(affine_shear_strain(W, n, np.full(50, 0.7)),
                        tangential(0.3 * np.einsum("pab,pb->pa", W, n)), rtol=1e-12, atol=1e-19)
+
+
+@pytest.mark.slow
+def test_the_slab_grows_its_zone_during_the_run(tmp_path, capsys):
+    """`slab --zone grow` end to end: a broken band link converts cells at step 200, the run
+    goes on to its end with the sensors continuous across the conversion, and records it;
+    a zone that cannot grow stops with one line and keeps what it wrote."""
+    import json
+    from cli.main import main
+    from orchestrator.run.outputs import read_sensors
+    grow = ["slab", "--model", "coupled", "--scale", "small", "--impactor-speed", "40",
+            "--zone", "grow", "--zone-start", "0.5", "--layers", "1", "--fe-material", "damage",
+            "--links-every", "100", "--steps", "300", "--quiet"]
+    out = tmp_path / "grow"
+    assert main(grow + ["--trip-omega", "1", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    first = summary["zone_conversions"][0]
+    assert summary["zone_outcome"] == "clean" and first["step"] == 200
+    assert first["spheres_added"] > 0 and first["cells"]
+    assert abs(first["energy_after"] / first["energy_before"] - 1) < 0.1
+    assert summary["n_spheres"] == first["spheres"] + sum(
+        c["spheres_added"] for c in summary["zone_conversions"][1:])
+    t, names, h = read_sensors(out / "sensors.csv")
+    z = h[:, names.index("under_impact"), 2]
+    jump = np.abs(np.diff(z)).max()
+    assert jump < 3 * np.abs(np.diff(z[:len(z) // 2])).max()     # no reset at a conversion
+    assert (out / "zones.png").is_file() and (out / "fe-zone2.xdmf").is_file()
+    assert main(grow + ["--trip-omega", "0.01", "--zone-limit", "0.6",
+                        "--out", str(tmp_path / "limit")]) == 1
+    line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert line.startswith("coupling cannot pay for this impact") and "limit" in line
+    assert (tmp_path / "limit" / "stopped" / "run.log").is_file()

@@ -95,6 +95,18 @@ def settle_forces():
         O.dt = dt
 
 
+def keep_engine_phase(steps):
+    """After a scene was built afresh mid-run (its step counter starts again), periodic
+    engines (the shear release) go on at the phase of the run's `steps`: each runs next
+    where it would have in the one scene. Else conversions closer than its period would
+    never let it run."""
+    yade = import_yade()
+    O = yade.Omega()
+    for e in O.engines:
+        if isinstance(e, yade.wrapper.PeriodicEngine) and e.iterPeriod > 0:
+            e.iterLast = O.iter - steps % e.iterPeriod
+
+
 def release_cracked_shear(omega=SHEAR_RELEASE_OMEGA):
     """Zero shear stiffness (CpmPhys.G, which the law multiplies the elastic shear strain by)
     on the cohesive links whose damage exceeds omega; returns how many were released now.

@@ -2,8 +2,9 @@
 (orchestrator.run.autozone) trip as there, and instead of starting again from t = 0 the run
 goes on from the same step in the model of the grown zone, built afresh through the one
 builder and given the old model's state (docs/auto-zone.md):
-- bodies of both models (matched by reference position): their state; their cohesive links:
-  the CPM history, and a link the old scene had lost (broken) is erased;
+- bodies of both models (matched by reference position): their state; their interactions:
+  the CPM history, a link the old scene had lost (broken) erased, and contacts made again
+  with their reference penetration (yade_side.transfer);
 - bodies new to the DE (the converted FE cells and the new band): the FE field at their
   centre, position ref + k u, velocity k v, rotation and spin h u, h v (½ curl); their links
   are made at reference positions, so the positions give them the FE's normal strain
@@ -15,9 +16,8 @@ builder and given the old model's state (docs/auto-zone.md):
 - the coupling: the band spheres' accumulated rotations (the old band's kept, the new ones'
   h u), the energy meter.
 The new model's stepper, weights and multiplier operators are the builder's: the band's
-factorisation is made once per conversion. Frictional contacts are made again by the
-collider (without their friction history), and YADE's own step counter restarts (what
-counts the run's steps is the run loop's).
+factorisation is made once per conversion. YADE's own step counter restarts (what counts
+the run's steps is the run loop's; periodic engines keep the run's phase).
 """
 import logging
 from dataclasses import dataclass
@@ -200,7 +200,7 @@ class GrowingModel:
     def grow(self, tripped):
         """Convert the cells `tripped` flags, and `levels.margin` more, and go on in the model
         of the grown zone; ZoneLimit if the zone cannot grow so."""
-        from yade_side.scene import settle_forces
+        from yade_side.scene import keep_engine_phase, settle_forces
         from yade_side.transfer import link_energy
         t0 = perf_counter()
         grid, old, n = self.cell_grid, self.current, self.watch.steps
@@ -225,6 +225,7 @@ class GrowingModel:
         carried, new_links = carry(snap, new, self.tol, self.shear)
         self._bind_sensors(new)
         settle_forces()
+        keep_engine_phase(n)
         after = new.energy_parts()
         normal, shear = link_energy(new_links)
         energy_before, energy_after = sum(before.values()), sum(after.values())
@@ -233,8 +234,8 @@ class GrowingModel:
         self.current, self.zone = new, grown
         self.zones.append(grown.copy())
         self.conversions.append({
-            "step": n, "indicator": tripped.indicator, "cells": int(grown.sum()),
-            "cells_added": int((grown & ~self.zones[-2]).sum()),
+            "step": n, "indicator": tripped.indicator,
+            "cells": np.argwhere(grown & ~self.zones[-2]).tolist(), "zone_cells": int(grown.sum()),
             "spheres_added": carried["bodies_added"], "spheres": int(new.sphere_count()),
             "energy_before": energy_before, "energy_after": energy_after,
             "energy_parts_before": before, "energy_parts_after": after,
