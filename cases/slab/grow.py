@@ -27,17 +27,19 @@ def run_grow(spec, out, quiet=False):
     `out`."""
     base, start, limit, levels = check(spec)
     grid = cell_grid(base)
-    dt = []
+    dt = None                   # every zone's model takes the first one's time step
 
     def build(mask):
-        m = SlabModel(spec, "coupled", zone_grid(base, mask), dt[0] if dt else None)
-        dt[:] = [m.dt]
+        nonlocal dt
+        m = SlabModel(spec, "coupled", zone_grid(base, mask), dt)
+        dt = m.dt
         return m
 
     say = (lambda line: None) if quiet else print
     model = GrowingModel(build, grid, start, limit, spec.tensile_strength, levels,
                          tol=1e-6 * spec.radius, log=say, shear=spec.grow_shear,
-                         budget=lambda segments, n: over_budget(segments, n, model, spec))
+                         budget=lambda segments, n: over_budget(segments, n, full_spheres,
+                                                                spec))
     full_spheres = len(model.scene.packs.slab_radii) + len(model.impactor_ids)
     try:
         summary = run_built(model, out, quiet)
@@ -51,7 +53,8 @@ def run_grow(spec, out, quiet=False):
         outcome, limit_reached = "limit", e.reached
         message = (f"coupling cannot pay for this impact, because what the DE zone must hold "
                    f"spreads too far: after {len(model.conversions)} conversions during the "
-                   f"run, at step {e.tripped.step} ({e.tripped.indicator}), {e} (DE zone "
+                   f"run, at step {e.tripped.step} ({e.tripped.indicator}), {e.reason} "
+                   f"(DE zone "
                    f"{int(model.zone.sum())} of {model.zone.size} in-plane cells, "
                    f"{model.sphere_count()} of the full model's {full_spheres} spheres)")
         print(message)
@@ -71,10 +74,10 @@ def run_grow(spec, out, quiet=False):
     return summary
 
 
-def over_budget(segments, n, model, spec):
+def over_budget(segments, n, full_spheres, spec):
     """Why growing cannot pay (None if it can): the sphere steps run, plus the rest of the run
     with at least the current zone's spheres, reach zone_cost × the full model's."""
-    full = (len(model.scene.packs.slab_radii) + len(model.impactor_ids)) * spec.steps
+    full = full_spheres * spec.steps
     spent = sum(spheres * steps for spheres, steps in segments)
     rest = segments[-1][0] * (spec.steps - n)
     if not spec.zone_cost or spent + rest < spec.zone_cost * full:

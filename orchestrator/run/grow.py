@@ -32,11 +32,12 @@ run_log = logging.getLogger("orchestrator.run")
 
 
 class ZoneLimit(Exception):
-    """The zone cannot grow as a trip asks: `reached` is "cells" (its limit) or "cost"."""
+    """The zone cannot grow as the trip `tripped` asks, because of `reason`: `reached` is
+    "cells" (its limit) or "cost" (the budget)."""
 
-    def __init__(self, message, reached, tripped):
-        super().__init__(message)
-        self.reached, self.tripped = reached, tripped
+    def __init__(self, reason, reached, tripped):
+        super().__init__(f"{reason} ({tripped})")
+        self.reason, self.reached, self.tripped = reason, reached, tripped
 
 
 def match(old, new, tol):
@@ -206,9 +207,9 @@ class GrowingModel:
         grid, old, n = self.cell_grid, self.current, self.watch.steps
         grown = (self.zone | grid.dilate(tripped.cells, self.levels.margin)) & self.limit
         if (tripped.cells & ~self.limit).any() or not (grown & ~self.zone).any():
-            raise ZoneLimit(f"the DE zone would pass its limit ({tripped})", "cells", tripped)
-        why = None if self.budget is None else self.budget(self.segments + [
-            (old.sphere_count(), n - sum(s for _, s in self.segments))], n)
+            raise ZoneLimit("the DE zone would pass its limit", "cells", tripped)
+        segment = (old.sphere_count(), n - sum(steps for _, steps in self.segments))
+        why = None if self.budget is None else self.budget(self.segments + [segment], n)
         if why:
             raise ZoneLimit(why, "cost", tripped)
         self._record_peaks()
@@ -217,7 +218,7 @@ class GrowingModel:
         snap = snapshot(old)
         if self._bind_sensors is None:
             self._bind_sensors = _sensor_binding(old)
-        self.segments.append((old.sphere_count(), n - sum(s for _, s in self.segments)))
+        self.segments.append(segment)
         seconds = old.seconds
         self._earlier = {k: self._earlier.get(k, 0.0) + seconds.get(k, 0.0)
                          for k in {*seconds, *self._earlier}}
@@ -259,7 +260,7 @@ class GrowingModel:
         """What summary.json keeps of the growth."""
         self._record_peaks()
         segments = self.segments + [(self.current.sphere_count(),
-                                     steps - sum(s for _, s in self.segments))]
+                                     steps - sum(k for _, k in self.segments))]
         return {"zone_conversions": self.conversions,
                 "zone_final": {"cells": np.argwhere(self.zone).tolist(),
                                "n_cells": int(self.zone.sum())},
