@@ -260,3 +260,27 @@ def test_an_ensemble_member_whose_zone_search_ends_at_its_limit_is_named_as_such
     assert _why_no_result(tmp_path, 1) == ("coupling cannot pay: its zone search reached the "
                                            "budget, zone.cost after 9 attempts")
     assert _why_no_result(tmp_path / "none", 1) == "exit 1"
+
+
+def test_ahead_flags_the_cells_past_its_share_of_the_level_and_only_those_that_tripped_limit():
+    """With ahead < 1 a trip flags the cells whose indicator passed ahead × the level too;
+    the zone's limit is judged on the cells that tripped alone, the others stop at it."""
+    from orchestrator.run.autozone import _trip
+    grid = CellGrid(P0, P1, N)                        # 6 × 4 cells of 0.2 m
+    centres = (np.argwhere(np.ones(grid.shape, bool)) + 0.5) * grid.size[:2]
+    points = np.column_stack([centres, np.full(len(centres), 0.1)])
+    x = points[:, 0]
+    values = np.select([x > 1.0, x < 0.2, (x > 0.4) & (x < 0.6)], [1.0, 0.6, 0.3], 0.0)
+    with pytest.raises(Tripped) as t:
+        _trip(7, values, 1.0, "{} cells", points, grid, ahead=0.5)
+    tripped = t.value
+    column = lambda mask: sorted(set(np.argwhere(mask)[:, 0].tolist()))
+    assert column(tripped.cells) == [5] and column(tripped.near) == [0, 5]
+    zone = np.zeros(grid.shape, bool)
+    zone[3] = True
+    limit = np.zeros(grid.shape, bool)
+    limit[1:] = True                                  # not column 0, which is only near
+    assert column(tripped.grown(zone, grid, 1, limit)) == [3, 4, 5]
+    assert column(tripped.grown(zone, grid, 1, np.ones(grid.shape, bool))) == [0, 1, 3, 4, 5]
+    limit[5] = False                                  # the cells that tripped are outside
+    assert tripped.grown(zone, grid, 1, limit) is None

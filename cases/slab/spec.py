@@ -9,7 +9,7 @@ from orchestrator.casefile import (boolean, check_spec, choice, integer, non_neg
                                    safety_range, spec_key as key, step_count)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.run.autozone import damage_level, omega_level, stress_level
+from orchestrator.run.autozone import ahead_level, damage_level, omega_level, stress_level
 from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY, concrete_set
 
 
@@ -61,6 +61,10 @@ class SlabSpec:
                            help="auto, grow: steps between bridging link checks")
     zone_margin: int = key(1, integer, positive, section="zone", name="margin",
                            help="auto, grow: cells added around the flagged ones")
+    zone_ahead: float = key(1.0, number, ahead_level, section="zone", name="ahead",
+                            help="auto, grow: when an indicator trips, the cells past this × "
+                                 "its level are flagged too (fewer, larger growths); 1: only "
+                                 "those that tripped")
     zone_cost: float = key(1.0, number, non_negative, section="zone", name="cost",
                            help="auto: the search stops when the spheres × steps it has run, "
                                 "plus one whole run of its last zone, reach this × the full "

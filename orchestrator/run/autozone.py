@@ -29,6 +29,10 @@ def damage_level(v):
     return None if 0 < v <= 1 else "in (0, 1] (FE damage)"
 
 
+def ahead_level(v):
+    return None if 0 < v <= 1 else "in (0, 1] (× the trip levels)"
+
+
 @dataclass(frozen=True)
 class TripLevels:
     """When a coupled run stops to grow its DE zone (docs/auto-zone.md):
@@ -43,13 +47,16 @@ class TripLevels:
       assumes an elastic continuum;
     - stress_every, links_every: steps between the two checks (their costs: ~0.03 and ~4-6
       steps of the small coupled slab; < 2 % of a step each at these defaults);
-    - margin: cells added around the flagged ones (≥ 1, so the crack's front is inside)."""
+    - margin: cells added around the flagged ones (≥ 1, so the crack's front is inside);
+    - ahead: when one trips, the cells where the same indicator has passed ahead × its level
+      are flagged too (1: only those that tripped): fewer, larger growths."""
     stress: float = 1.0
     omega: float = 0.1
     damage: float = 0.9
     stress_every: int = 10
     links_every: int = 400
     margin: int = 1
+    ahead: float = 1.0
 
     def __post_init__(self):
         for name, check in (("stress", stress_level), ("omega", omega_level),
@@ -61,14 +68,26 @@ class TripLevels:
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        if ahead_level(self.ahead):
+            raise ValueError(f"ahead must be {ahead_level(self.ahead)}, got {self.ahead!r}")
 
 
 class Tripped(Exception):
-    """An indicator passed its level at `step`; `cells`: the mask of the flagged cells."""
+    """An indicator passed its level at `step`; `cells`: the mask of the cells that did;
+    `near`: of those past `ahead` × the level (TripLevels.ahead; default `cells`)."""
 
-    def __init__(self, step, indicator, cells):
+    def __init__(self, step, indicator, cells, near=None):
         super().__init__(f"zone check tripped at step {step}: {indicator}")
         self.step, self.indicator, self.cells = step, indicator, cells
+        self.near = cells if near is None else near | cells
+
+    def grown(self, zone, grid, margin, limit):
+        """The zone grown over the flagged cells and `margin` more, inside `limit`; None if
+        it cannot grow so (a cell that tripped lies outside the limit, or nothing is new)."""
+        grown = (zone | grid.dilate(self.near & limit, margin)) & limit
+        if (self.cells & ~limit).any() or not (grown & ~zone).any():
+            return None
+        return grown
 
 
 class Watch:
@@ -103,25 +122,26 @@ class Watch:
                 d = fe.damage
                 self.peak_damage = max(self.peak_damage, float(d.max(initial=0.0)))
                 _trip(n, d, lv.damage, f"FE damage {d.max():.3g} ≥ {lv.damage:g} in {{}} cells",
-                      self.fe_centres, self.grid)
+                      self.fe_centres, self.grid, lv.ahead)
             else:
                 s1 = fe.stress().max_principal
                 self.peak_stress = max(self.peak_stress, float(s1.max(initial=0.0)))
                 _trip(n, s1, self.limit, f"FE σ1 {s1.max() / 1e6:.3g} MPa ≥ {lv.stress:g} × ft "
-                                         f"in {{}} cells", self.fe_centres, self.grid)
+                                         f"in {{}} cells", self.fe_centres, self.grid, lv.ahead)
         if self.band.size and n % lv.links_every == 0:
             worst = self.model.damage.worst_link()[self.band]
             self.peak_omega = max(self.peak_omega, float(worst.max(initial=0.0)))
             _trip(n, worst, lv.omega, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} at {{}} "
-                                      f"spheres", self.band_pos, self.grid)
+                                      f"spheres", self.band_pos, self.grid, lv.ahead)
 
 
-def _trip(n, values, level, text, positions, grid):
+def _trip(n, values, level, text, positions, grid, ahead=1.0):
     """Tripped at step n if any of `values` reaches `level`: `text` with their count, the
-    cells of their `positions` flagged."""
+    cells of the `positions` of those past ahead × level flagged."""
     over = values >= level
     if over.any():
-        raise Tripped(n, text.format(np.count_nonzero(over)), grid.cells_of(positions[over]))
+        raise Tripped(n, text.format(np.count_nonzero(over)), grid.cells_of(positions[over]),
+                      grid.cells_of(positions[values >= ahead * level]))
 
 
 @dataclass
@@ -200,8 +220,8 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
             status, reached = "clean", None
             break
         # flagged cells beyond the limit end the search; the margin stops at the limit
-        grown = (zone | grid.dilate(tripped.cells, levels.margin)) & limit
-        if (tripped.cells & ~limit).any() or not (grown & ~zone).any():
+        grown = tripped.grown(zone, grid, levels.margin, limit)
+        if grown is None:
             status, reached = "limit", "cells"
             break
         why = None if budget is None else budget(attempts)

@@ -205,8 +205,8 @@ class GrowingModel:
         from yade_side.transfer import link_energy
         t0 = perf_counter()
         grid, old, n = self.cell_grid, self.current, self.watch.steps
-        grown = (self.zone | grid.dilate(tripped.cells, self.levels.margin)) & self.limit
-        if (tripped.cells & ~self.limit).any() or not (grown & ~self.zone).any():
+        grown = tripped.grown(self.zone, grid, self.levels.margin, self.limit)
+        if grown is None:
             raise ZoneLimit("the DE zone would pass its limit", "cells", tripped)
         segment = (old.sphere_count(), n - sum(steps for _, steps in self.segments))
         why = None if self.budget is None else self.budget(self.segments + [segment], n)
