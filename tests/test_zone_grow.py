@@ -283,3 +283,15 @@ def test_the_slab_grows_its_zone_during_the_run(tmp_path, capsys):
     line = capsys.readouterr().out.strip().splitlines()[-1]
     assert line.startswith("coupling cannot pay for this impact") and "limit" in line
     assert (tmp_path / "limit" / "stopped" / "run.log").is_file()
+
+
+def test_case_files_take_zone_grow_and_its_keys():
+    from pathlib import Path
+    from cases.kinds import load_case
+    from cases.slab.casefile import spec as slab_spec
+    slab_toml = Path(__file__).resolve().parents[1] / "cases" / "slab.toml"
+    spec = slab_spec(load_case(slab_toml, ["slab.zone=grow", "zone.shear=true",
+                                           "zone.ahead=0.5"]))
+    assert (spec.zone, spec.grow_shear, spec.zone_ahead) == ("grow", True, 0.5)
+    with pytest.raises(ValueError, match=r"\n  - zone.ahead = 0.0: must be in \(0, 1\]"):
+        load_case(slab_toml, ["slab.zone=grow", "zone.ahead=0.0"])
