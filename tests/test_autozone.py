@@ -260,6 +260,10 @@ def test_an_ensemble_member_whose_zone_search_ends_at_its_limit_is_named_as_such
     assert _why_no_result(tmp_path, 1) == ("coupling cannot pay: its zone search reached the "
                                            "budget, zone.cost after 9 attempts")
     assert _why_no_result(tmp_path / "none", 1) == "exit 1"
+    (tmp_path / "summary.json").write_text(json.dumps(
+        {"zone_outcome": "limit", "zone_limit_reached": "cells", "zone_conversions": [{}] * 2}))
+    assert _why_no_result(tmp_path, 1) == ("coupling cannot pay: its growing zone reached the "
+                                           "zone's limit after 2 conversions")
 
 
 def test_ahead_flags_the_cells_past_its_share_of_the_level_and_only_those_that_tripped_limit():

@@ -185,9 +185,11 @@ def _why_no_result(folder, code):
     if s.get("zone_outcome") != "limit":
         return f"exit {code}"
     reached = {"cells": "the zone's limit", "cost": "the budget, zone.cost"}
-    return (f"coupling cannot pay: its zone search reached "
-            f"{reached.get(s.get('zone_limit_reached'), 'its limit')} after "
-            f"{len(s.get('zone_attempts', []))} attempts")
+    how = (f"its growing zone reached {{}} after {len(s['zone_conversions'])} conversions"
+           if "zone_conversions" in s else
+           f"its zone search reached {{}} after {len(s.get('zone_attempts', []))} attempts")
+    return "coupling cannot pay: " + how.format(
+        reached.get(s.get("zone_limit_reached"), "its limit"))
 
 
 def _spec_argv(args, seed):
