@@ -222,7 +222,9 @@ class GrowingModel:
         seconds = old.seconds
         self._earlier = {k: self._earlier.get(k, 0.0) + seconds.get(k, 0.0)
                          for k in {*seconds, *self._earlier}}
+        t_build = perf_counter()
         new = self.build(grown)
+        t_build = perf_counter() - t_build
         carried, new_links = carry(snap, new, self.tol, self.shear)
         self._bind_sensors(new)
         settle_forces()
@@ -241,7 +243,7 @@ class GrowingModel:
             "energy_before": energy_before, "energy_after": energy_after,
             "energy_parts_before": before, "energy_parts_after": after,
             "new_links_energy": {"normal": normal, "shear": shear},
-            "carried": carried, "wall_s": perf_counter() - t0})
+            "carried": carried, "wall_s": perf_counter() - t0, "build_s": t_build})
         line = (f"zone grown at step {n} ({tripped.indicator}): {int(grown.sum())} cells, "
                 f"{new.sphere_count()} spheres (+{carried['bodies_added']}); energy "
                 f"{energy_before:.6g} J → {energy_after:.6g} J")
