@@ -15,7 +15,7 @@ import numpy as np
 
 from cases.slab.geometry import cell_grid
 from cases.slab.model import SlabModel, run_built
-from cases.slab.search import fallback
+from cases.slab.search import cannot_pay, fallback
 from cases.slab.zone import check, zone_grid
 from common.files import write_json
 from orchestrator.run.autozone import plot_zones
@@ -51,12 +51,11 @@ def run_grow(spec, out, quiet=False):
             if entry != stopped and not entry.name.startswith("."):    # the folder's marker
                 entry.rename(stopped / entry.name)
         outcome, limit_reached = "limit", e.reached
-        message = (f"coupling cannot pay for this impact, because what the DE zone must hold "
-                   f"spreads too far: after {len(model.conversions)} conversions during the "
-                   f"run, at step {e.tripped.step} ({e.tripped.indicator}), {e.reason} "
-                   f"(DE zone "
-                   f"{int(model.zone.sum())} of {model.zone.size} in-plane cells, "
-                   f"{model.sphere_count()} of the full model's {full_spheres} spheres)")
+        message = cannot_pay(
+            f"after {len(model.conversions)} conversions during the run, at step "
+            f"{e.tripped.step} ({e.tripped.indicator}), {e.reason} (DE zone "
+            f"{int(model.zone.sum())} of {model.zone.size} in-plane cells, "
+            f"{model.sphere_count()} of the full model's {full_spheres} spheres)")
         print(message)
         summary = {**fallback(spec, out, quiet), "zone_message": message}
     summary.update(model.record(spec.steps), zone_outcome=outcome,

@@ -87,14 +87,19 @@ def over_budget(attempts, full_spheres, spec):
             f"reach zone.cost = {spec.zone_cost:g} × the full model's {full:.4g}")
 
 
+def cannot_pay(detail):
+    """The one line of a zone that cannot grow enough (searched or grown during the run)."""
+    return f"coupling cannot pay for this impact, because what the DE zone must hold " \
+           f"spreads too far: {detail}"
+
+
 def message(outcome, full_spheres, record):
     """The search's one line: that coupling cannot pay, and because of what (the concrete the
     DE zone must hold spreads past the zone's limit or its budget: the last trip says where)."""
     a = outcome.attempts[-1]
     why = ("would pass its limit" if outcome.limit == "cells" else
            "would cost more than the full model (zone.cost) in another attempt")
-    return (f"coupling cannot pay for this impact, because what the DE zone must hold spreads "
-            f"too far: after {len(outcome.attempts)} attempts, the last tripped at step "
+    return cannot_pay(f"after {len(outcome.attempts)} attempts, the last tripped at step "
             f"{a['tripped_step']} by {a['indicator']}, the DE zone ({a['cells']} of "
             f"{outcome.zone.size} in-plane cells, {a['spheres']} of the full model's "
             f"{full_spheres} spheres) {why}; {outcome.wall_s:.3g} s spent against a projected "

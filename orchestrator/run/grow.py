@@ -144,6 +144,11 @@ def affine_shear_strain(G, normal, lever_ratio):
     return t - np.einsum("pa,pa->p", t, normal)[:, None] * normal
 
 
+def _added(a, b):
+    """Two time splits added, key by key."""
+    return {k: a.get(k, 0.0) + b.get(k, 0.0) for k in {*a, *b}}
+
+
 def _centres(fe):
     return fe.nodes[fe.cell_nodes].mean(axis=1)
 
@@ -191,8 +196,7 @@ class GrowingModel:
 
     @property
     def seconds(self):
-        now = self.current.seconds
-        return {k: self._earlier.get(k, 0.0) + now.get(k, 0.0) for k in {*now, *self._earlier}}
+        return _added(self._earlier, self.current.seconds)
 
     @property
     def steps(self):
@@ -219,9 +223,7 @@ class GrowingModel:
         if self._bind_sensors is None:
             self._bind_sensors = _sensor_binding(old)
         self.segments.append(segment)
-        seconds = old.seconds
-        self._earlier = {k: self._earlier.get(k, 0.0) + seconds.get(k, 0.0)
-                         for k in {*seconds, *self._earlier}}
+        self._earlier = _added(self._earlier, old.seconds)
         t_build = perf_counter()
         new = self.build(grown)
         t_build = perf_counter() - t_build
