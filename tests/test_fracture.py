@@ -10,7 +10,8 @@ import pytest
 from yade_side import import_yade
 from yade_side.calibration import Loading
 from yade_side.fracture import (break_strain_ratio, ductility_factor, ductility_for_factor,
-                                link_work_density, mc2010_fracture_energy, separation_test)
+                                balance_failure, link_work_density, mc2010_fracture_energy,
+                                separation_test)
 from yade_side.scene import BROKEN_OMEGA
 
 from test_calibration import lattice
@@ -59,6 +60,15 @@ def test_lattice_dissipates_the_energy_of_its_links(rel_ductility):
     assert run["fracture_energy"] == pytest.approx(
         exact, rel=delta / (e0 * ductility_factor(rel_ductility)))
     assert run["peak"] == pytest.approx(math.pi * R**2 * E * e0 / d**2, rel=delta / e0)
+
+
+def test_a_balance_that_finds_more_energy_than_went_in_gives_no_fracture_energy():
+    """The paper-scale plain set's separation test: the ends put in 55.6 J, damping alone took
+    2,766 J (docs/calibration.md): the links' share would be negative, so no Gf."""
+    assert balance_failure(55.6, 54.0) is None
+    why = balance_failure(55.6, 0.91 + 30.6 + 2766.0)
+    assert "2798 J" in why and "55.6 J" in why and "no fracture energy" in why
+    assert balance_failure(55.6, 55.6) is not None     # the links dissipated nothing
 
 
 def test_mc2010_fracture_energy():

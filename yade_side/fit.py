@@ -77,6 +77,8 @@ def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0
                 f"nu={c['nu']:.3f} fc={fc / 1e6:.2f} MPa")
         if fit_gf:
             t = fracture.separation_test(sample, params, loading)
+            if t["fracture_energy"] is None:
+                raise ValueError(f"iteration {it}, separation test: {t['balance']}")
             record.update(ft=t["peak"], fracture_energy=t["fracture_energy"],
                           seconds=c["seconds"] + t["seconds"])
             line += (f" ft={t['peak'] / 1e6:.2f} MPa Gf={t['fracture_energy']:.1f} J/m²"

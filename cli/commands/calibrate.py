@@ -114,7 +114,7 @@ def fracture_record(test):
     if "fracture_energy" not in test:
         return None
     keys = ("work", "elastic_end", "kinetic", "damping", "area", "work_of_fracture",
-            "strain_peak", "separated")
+            "strain_peak", "separated", "balance")
     return {k: test[k] for k in keys}
 
 
@@ -148,6 +148,9 @@ def _print_result(result, macro, out):
           f"fc={macro['fc'] / 1e6:.2f} MPa ft={macro['ft'] / 1e6:.2f} MPa{gf_text} "
           f"({len(result['iterations'])} fit iterations"
           f"{', NOT converged' if result['converged'] is False else ''}); results in {out}")
+    if result["tension"].get("balance"):
+        print(f"no Gf: {result['tension']['balance']} (work of fracture W/A "
+              f"{result['tension']['work_of_fracture']:.1f} J/m²)")
 
 
 def plot_curves(path, compression, tension, macro, radius):
