@@ -52,8 +52,8 @@ def worker(task, threads=1):
 
 def damage_spec(scale):
     """The default coupled slab of `scale` with the FE that cracks; where the scale's concrete
-    has no measured Gf (paper: no separation test), TIMING_GF: the cost does not depend on Gf
-    (the law runs over every cell each step)."""
+    has no measured Gf (paper: its separation test gives none), TIMING_GF: the cost does not
+    depend on Gf (the law runs over every cell each step)."""
     from cases.slab.scales import concrete_set
     spec = {"scale": scale, "fe_material": "damage"}
     if concrete_set(scale, "plain").fracture_energy is None:
