@@ -167,12 +167,13 @@ def separation_test(sample, params, loading=Loading(), material=None, residual=R
     free.read()
     kinetic = free.kinetic_energy() if len(free) else 0.0
     damping = float(O.energy["nonviscDamp"]) if "nonviscDamp" in O.energy.keys() else 0.0
-    dissipated = work + kinetic0 - elastic - kinetic - damping
+    energy_in, energy_out = work + kinetic0, elastic + kinetic + damping
+    balance = balance_failure(energy_in, energy_out)
     return dict(strain=np.array(strain), stress=np.array(stress), peak=peak,
                 strain_peak=d_peak / gauge, work=work, elastic_end=elastic,
                 kinetic=(kinetic0, kinetic), damping=damping, area=area,
-                fracture_energy=dissipated / area if dissipated > 0 else None,
-                balance=balance_failure(work + kinetic0, elastic + kinetic + damping),
+                fracture_energy=None if balance else (energy_in - energy_out) / area,
+                balance=balance,
                 work_of_fracture=work / area, separated=separated, steps=O.iter, dt=O.dt,
                 spheres=len(ids), seconds=time.perf_counter() - t0)
 
