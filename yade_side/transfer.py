@@ -152,13 +152,15 @@ def _write(items, links, offset):
     values[:, _VECTORS] *= sign[:, None]
     HistoryBlocks([i.phys for i, _, _ in items], offset).write(values)
     normal = links.normal[k] * sign[:, None]
-    for (i, j, _), n in zip(items, normal):
+    for (i, _, _), n, released, contact, ref_pd in zip(
+            items, normal, links.shear_modulus[k] == 0, ~links.cohesive[k],
+            links.ref_penetration[k]):
         i.geom.normal = tuple(n)
-        if links.shear_modulus[j] == 0:
+        if released:
             i.phys.G = 0.0
-        if not links.cohesive[j]:
+        if contact:
             i.phys.isCohesive = False
-            i.phys.refPD = float(links.ref_penetration[j])
+            i.phys.refPD = float(ref_pd)
 
 
 def lever_arms_are_radii():

@@ -184,12 +184,13 @@ def _why_no_result(folder, code):
         return f"exit {code}"
     if s.get("zone_outcome") != "limit":
         return f"exit {code}"
-    reached = {"cells": "the zone's limit", "cost": "the budget, zone.cost"}
-    how = (f"its growing zone reached {{}} after {len(s['zone_conversions'])} conversions"
-           if "zone_conversions" in s else
-           f"its zone search reached {{}} after {len(s.get('zone_attempts', []))} attempts")
-    return "coupling cannot pay: " + how.format(
-        reached.get(s.get("zone_limit_reached"), "its limit"))
+    reached = {"cells": "the zone's limit", "cost": "the budget, zone.cost"}.get(
+        s.get("zone_limit_reached"), "its limit")
+    if "zone_conversions" in s:
+        return (f"coupling cannot pay: its growing zone reached {reached} after "
+                f"{len(s['zone_conversions'])} conversions")
+    return (f"coupling cannot pay: its zone search reached {reached} after "
+            f"{len(s.get('zone_attempts', []))} attempts")
 
 
 def _spec_argv(args, seed):

@@ -27,6 +27,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from orchestrator.run.autozone import Tripped, Watch
+from orchestrator.run.restart import add_splits
 
 run_log = logging.getLogger("orchestrator.run")
 
@@ -144,11 +145,6 @@ def affine_shear_strain(G, normal, lever_ratio):
     return t - np.einsum("pa,pa->p", t, normal)[:, None] * normal
 
 
-def _added(a, b):
-    """Two time splits added, key by key."""
-    return {k: a.get(k, 0.0) + b.get(k, 0.0) for k in {*a, *b}}
-
-
 def _centres(fe):
     return fe.nodes[fe.cell_nodes].mean(axis=1)
 
@@ -194,9 +190,13 @@ class GrowingModel:
         except Tripped as t:
             self.grow(t)
 
+    def _segment(self, n):
+        """(spheres, steps) of the current zone's run up to step n."""
+        return self.current.sphere_count(), n - sum(steps for _, steps in self.segments)
+
     @property
     def seconds(self):
-        return _added(self._earlier, self.current.seconds)
+        return add_splits(self._earlier, self.current.seconds)
 
     @property
     def steps(self):
@@ -212,7 +212,7 @@ class GrowingModel:
         grown = tripped.grown(self.zone, grid, self.levels.margin, self.limit)
         if grown is None:
             raise ZoneLimit("the DE zone would pass its limit", "cells", tripped)
-        segment = (old.sphere_count(), n - sum(steps for _, steps in self.segments))
+        segment = self._segment(n)
         why = None if self.budget is None else self.budget(self.segments + [segment], n)
         if why:
             raise ZoneLimit(why, "cost", tripped)
@@ -223,7 +223,7 @@ class GrowingModel:
         if self._bind_sensors is None:
             self._bind_sensors = _sensor_binding(old)
         self.segments.append(segment)
-        self._earlier = _added(self._earlier, old.seconds)
+        self._earlier = add_splits(self._earlier, old.seconds)
         t_build = perf_counter()
         new = self.build(grown)
         t_build = perf_counter() - t_build
@@ -263,8 +263,7 @@ class GrowingModel:
     def record(self, steps):
         """What summary.json keeps of the growth."""
         self._record_peaks()
-        segments = self.segments + [(self.current.sphere_count(),
-                                     steps - sum(k for _, k in self.segments))]
+        segments = self.segments + [self._segment(steps)]
         return {"zone_conversions": self.conversions,
                 "zone_final": {"cells": np.argwhere(self.zone).tolist(),
                                "n_cells": int(self.zone.sum())},

@@ -105,9 +105,7 @@ class Recorder:
 
     def seconds(self):
         """Time split of this segment and the earlier ones."""
-        now = {**self.m.seconds, "output": self.output_s}
-        earlier = self.rec.seconds
-        return {k: earlier.get(k, 0.0) + now.get(k, 0.0) for k in {*now, *earlier}}
+        return restart.add_splits(self.rec.seconds, {**self.m.seconds, "output": self.output_s})
 
     def checkpoint(self, n):
         rec = self.rec

@@ -49,6 +49,11 @@ class Record:
     fe_peak: list = field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
 
 
+def add_splits(a, b):
+    """Two time splits ({part: seconds}) added, part by part."""
+    return {k: a.get(k, 0.0) + b.get(k, 0.0) for k in {*a, *b}}
+
+
 def fingerprint(model, title, steps):
     """What a checkpoint must share with the rebuilt model to be loaded into it."""
     return {"title": title, "steps": int(steps), "dt": float(model.dt),
