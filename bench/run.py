@@ -61,13 +61,6 @@ def damage_spec(scale):
     return spec
 
 
-def map_zone_spec(scale):
-    """The map's cheap end (docs/where-coupling-pays.md): a square box of SMALL_BOX, one
-    bridging layer; at paper scale the zone that pays at 10 m/s."""
-    from cases.slab.study_plan import SMALL_BOX
-    return {"scale": scale, "de_zone": SMALL_BOX, "full_width": False, "layers": 1}
-
-
 def measure(plan):
     raw = {"scales": {}, "threads": {}}
     for scale, (warmup, steps) in plan.items():
@@ -78,9 +71,6 @@ def measure(plan):
                                    variants=["diagonal", "full"])),
             "coupled_damage": worker(dict(base, model="coupled", spec=damage_spec(scale))),
         }
-        if scale == "paper":
-            raw["scales"][scale]["coupled_map"] = worker(dict(base, model="coupled", output=True,
-                                                              spec=map_zone_spec(scale)))
     # OpenMP threads: the full model (YADE alone) at the largest scale below paper
     below_paper = [s for s in plan if s != "paper"]
     if not below_paper:

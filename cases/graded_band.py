@@ -6,7 +6,7 @@ and the FE critical time step, for bands of `layers` cells of `ratio` sphere dia
 Sphere counts come from the geometry: the band is the box-shaped shell (Chebyshev depth, as
 orchestrator.coupling.bridging.BoxZone) of width layers × h around the DE box, through the thickness,
 and holds N_V × its volume spheres. N_V, the spheres per m³ of the zone and band, is measured
-on today's paper-scale coupled model (PAPER_COUPLED).
+on the paper-scale coupled model with a 0.6 m box and 3 layers (PAPER_COUPLED, MEASURED).
 """
 from dataclasses import dataclass
 
@@ -15,9 +15,11 @@ import numpy as np
 from cases.slab import SCALES, SLAB, SlabSpec, slab_grid
 from cases.slab.scales import concrete_set
 
-# today's paper-scale coupled model (docs/benchmarks.md): slab spheres (28,365 less the
-# impactor's 2,042) in the DE box + 3 layers of 0.0714 m cells; the bridging spheres among them
+# a paper-scale coupled model (docs/benchmarks.md of 2026-11): slab spheres (28,365 less the
+# impactor's 2,042) in the DE box of MEASURED + 3 layers of 0.0714 m cells; the bridging spheres
+# among them
 PAPER_COUPLED = {"slab_spheres": 26323, "bridging": 17343, "impactor": 2042}
+MEASURED = {"scale": "paper", "de_zone": 0.6, "layers": 3}
 
 
 @dataclass
@@ -44,8 +46,8 @@ def shell_area(a, b, width):
 
 
 def sphere_density():
-    """Slab spheres per m³ of today's paper-scale zone + band (measured counts)."""
-    spec = SlabSpec(scale="paper")
+    """Slab spheres per m³ of the measured paper-scale zone + band."""
+    spec = SlabSpec(**MEASURED)
     lo, hi = zone_box(spec)
     a, b = (hi - lo)[:2]
     width = spec.layers * slab_grid(spec).h
@@ -70,7 +72,7 @@ def de_critical_step(scale="paper", packing_fraction=None):
 
 def graded_fe_critical_step(spec, layers, h, ratio_max=1.2, h_max=None, weighted=False):
     """Critical step of the FE part on the graded mesh (fenicsx_side.mesh.graded_axis) with
-    `layers` cells of h around today's DE box, the thickness cells as today."""
+    `layers` cells of h around the DE box of `spec`, the thickness cells as its grid's."""
     from fenicsx_side.mesh import graded_axis, tensor_box_with_hole
     from fenicsx_side.model import ElasticModel, face
     from orchestrator.coupling.bridging import BoxZone, Bridging
@@ -87,7 +89,7 @@ def graded_fe_critical_step(spec, layers, h, ratio_max=1.2, h_max=None, weighted
 
 
 def band_figures(layers, ratio, with_fe=False):
-    spec = SlabSpec(scale="paper")
+    spec = SlabSpec(**MEASURED)
     lo, hi = zone_box(spec)
     a, b = (hi - lo)[:2]
     h = ratio * 2 * SCALES["paper"].radius
@@ -100,18 +102,19 @@ def band_figures(layers, ratio, with_fe=False):
 
 
 def main():
-    spec = SlabSpec(scale="paper")
+    spec = SlabSpec(**MEASURED)
     lo, hi = zone_box(spec)
-    h_today = slab_grid(spec).h
+    h_uniform = slab_grid(spec).h
     print(f"paper scale: DE box {np.round(hi - lo, 4)[:2].tolist()} m, R = {SCALES['paper'].radius} m, "
-          f"spheres per m^3 of zone + band {sphere_density():.0f}, today's cells "
-          f"{h_today:.4f} m = {h_today / (2 * SCALES['paper'].radius):.2f} d, thickness cells "
+          f"spheres per m^3 of zone + band {sphere_density():.0f}, its cells "
+          f"{h_uniform:.4f} m = {h_uniform / (2 * SCALES['paper'].radius):.2f} d, thickness cells "
           f"{SLAB[2] / slab_grid(spec).n[2]:.4f} m")
-    today = band_figures(spec.layers, h_today / (2 * SCALES["paper"].radius))
-    print(f"today (uniform): band {today.band:.0f} of {today.coupled:.0f} slab spheres = "
-          f"{today.share:.1%} ({today.share_with_impactor:.1%} with the impactor; measured "
+    measured = band_figures(spec.layers, h_uniform / (2 * SCALES["paper"].radius))
+    print(f"the measured zone (uniform): band {measured.band:.0f} of {measured.coupled:.0f} slab "
+          f"spheres = {measured.share:.1%} ({measured.share_with_impactor:.1%} with the "
+          f"impactor; measured "
           f"{PAPER_COUPLED['bridging']} = "
-          f"{PAPER_COUPLED['bridging'] / (today.coupled + PAPER_COUPLED['impactor']):.1%})")
+          f"{PAPER_COUPLED['bridging'] / (measured.coupled + PAPER_COUPLED['impactor']):.1%})")
     print("layers  cell/d  width(m)  coupled  band  share  share+impactor  FE dt/DE dt")
     for layers, ratio in ((3, 4.0), (3, 3.0), (3, 2.0), (2, 2.0), (1, 2.0), (3, 1.5), (2, 1.5),
                           (3, 1.2), (3, 1.0)):
@@ -123,12 +126,12 @@ def main():
     for layers, ratio in ((3, 2.0), (3, 4.0)):
         k = zone_scale_for_share(a, b, layers * ratio * 2 * SCALES["paper"].radius, 0.35)
         print(f"a 35 % band share with {layers} layers of {ratio} d needs a DE box "
-              f"{k * a:.3f} x {k * b:.3f} m ({k:.2f} x today's)")
+              f"{k * a:.3f} x {k * b:.3f} m ({k:.2f} x the measured box)")
     t, nodes = graded_fe_critical_step(spec, 3, 4 * SCALES["paper"].radius, weighted=True)
     print(f"3 layers of 2 d, consistent weighting (alpha in K and M): FE dt / DE dt = "
           f"{t / de_critical_step():.3f}, {nodes} nodes")
-    t, nodes = graded_fe_critical_step(spec, spec.layers, h_today)
-    print(f"today's uniform mesh as a graded one (3 layers of {h_today:.4f} m): FE dt / DE dt = "
+    t, nodes = graded_fe_critical_step(spec, spec.layers, h_uniform)
+    print(f"its uniform mesh as a graded one (3 layers of {h_uniform:.4f} m): FE dt / DE dt = "
           f"{t / de_critical_step():.3f}, {nodes} nodes")
 
 

@@ -230,7 +230,7 @@ def test_a_scatter_a_null_prediction_lies_in_is_named_and_checks_are_shown(tmp_p
 
 def test_one_full_paper_run_gives_the_paired_goals_and_table1(tmp_path):
     runs = sp.plan(only="paper", bench=BENCH)
-    assert [r.config.name for r in runs] == ["zone-0.6m-box-nb3", "full"]
+    assert [r.config.name for r in runs] == ["zone-0.5m-box-nb1", "full"]
     c, f = runs
     assert c.chosen and c.steps == f.steps >= 5e-3 / BENCH["paper"]["full"]["dt"]
     write_member(tmp_path / f.folder, f, 1.0, s_per_step=4.0, spheres=120000)
@@ -241,7 +241,7 @@ def test_one_full_paper_run_gives_the_paired_goals_and_table1(tmp_path):
     assert row["accuracy"]["absolute_goals"][0]["peaks_within_10_percent"] is True
     assert row["goal"]["qualifies"] is False and "4.00x < 10x" in row["goal"]["why"]
     t1 = report.table1(table)
-    assert t1["coupled"]["spheres"] == 28000 and t1["coupled"]["n_b"] == 3
+    assert t1["coupled"]["spheres"] == 28000 and t1["coupled"]["n_b"] == 1
     assert t1["coupled"]["projected_100k_steps_s"]["run"] == pytest.approx(1e5 * 1.0)
     assert t1["full"]["projected_100k_steps_s"]["run"] == pytest.approx(4e5)
 

@@ -75,7 +75,8 @@ class SlabSpec:
                            help="grow: the links of converted cells take the FE's shear strain "
                                 "(affine) too, not only its normal strain: that adds 2-3 × the "
                                 "energy the cells had (docs/auto-zone.md)")
-    layers: int = key(3, integer, positive, section="coupling", help="bridging layers")
+    layers: int = key(None, integer, positive, section="coupling",
+                      help="bridging layers; default per scale")
     band_ratio: float = key(None, number, positive, section="coupling",
                             help="in-plane size of the bridging band's FE cells / sphere "
                                  "diameter: a graded FE mesh, its cells growing by at most "

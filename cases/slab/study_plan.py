@@ -84,7 +84,7 @@ class Config:
     zone: str = "box"           # "box" | "auto"
     de_zone: float = None       # m; None: the scale's
     full_width: bool = None     # None: the scale's
-    layers: int = 3
+    layers: int = None          # None: the scale's
     band_ratio: float = None    # a graded FE mesh's band cells / sphere diameter (None: uniform)
     reinforced: bool = False    # the default bar mesh (docs/reinforcement.md)
     fe_material: str = "elastic"  # or "damage" (docs/fe-damage.md)
@@ -98,11 +98,11 @@ class Config:
         """The name of its zone and band: where its sensors sit."""
         if self.model == "full":
             return "full"
-        if self.zone == "auto":
-            return f"auto-nb{self.layers}"
         d = self.defaults()
+        if self.zone == "auto":
+            return f"auto-nb{d.layers}"
         graded = "" if self.band_ratio is None else f"-graded-{self.band_ratio:g}d"
-        return (f"zone-{d.de_zone:g}m-{'strip' if d.full_width else 'box'}-nb{self.layers}"
+        return (f"zone-{d.de_zone:g}m-{'strip' if d.full_width else 'box'}-nb{d.layers}"
                 f"{graded}")
 
     @property

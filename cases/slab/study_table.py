@@ -80,10 +80,11 @@ def _full_figures(cfg, members, full):
 def config_row(c, members, full, full_cfg, found, timing):
     """The figures of one coupled configuration (members: {seed: (planned, folder, summary)})."""
     done = {seed: (r, f, s) for seed, (r, f, s) in members.items() if s is not None}
-    row = {"config": c.name, "model": "coupled", "zone": c.zone, "layers": c.layers,
+    d = c.defaults()
+    row = {"config": c.name, "model": "coupled", "zone": c.zone, "layers": d.layers,
            "fe_material": c.fe_material,
-           "de_zone_m": None if c.zone == "auto" else c.defaults().de_zone,
-           "full_width": None if c.zone == "auto" else c.defaults().full_width,
+           "de_zone_m": None if c.zone == "auto" else d.de_zone,
+           "full_width": None if c.zone == "auto" else d.full_width,
            "band_ratio": c.band_ratio,
            "seeds": sorted(done), "missing": sorted(set(members) - set(done)),
            "folders": {seed: str(f) for seed, (_, f, _) in done.items()}}
