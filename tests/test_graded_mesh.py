@@ -105,8 +105,9 @@ def test_tensor_box_refuses_a_hole_off_the_grid():
 
 def test_band_share_from_the_geometry():
     """cases.graded_band: the density measured on a paper-scale coupled model (the 0.6 m box
-    and its 3-layer band together) predicts its band's own count (17,343 bridging spheres measured) to 0.5 %;
-    the zone grown by zone_scale_for_share gives exactly the asked share."""
+    and its 3-layer band together) predicts its band's own count (17,343 bridging spheres
+    measured) to 0.5 %; the zone grown by zone_scale_for_share gives exactly the asked
+    share."""
     from cases.graded_band import PAPER_COUPLED, band_figures, shell_area, zone_scale_for_share
     measured = band_figures(3, 0.0714285714285714 / 0.0224)
     assert measured.coupled == pytest.approx(PAPER_COUPLED["slab_spheres"], rel=1e-12)
