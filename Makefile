@@ -84,7 +84,7 @@ render:
 	pictures are in results/slab-small/10ms/compare/report.html"; fi
 
 test: setup setup-browser
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q -n 2 tests
 
 test-slow: setup
 	$(PY) -m pytest -q -m slow tests
