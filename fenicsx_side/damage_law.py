@@ -1,35 +1,47 @@
-"""An isotropic damage law for concrete, regularised by the crack band: pure numpy, per cell.
+"""A concrete damage law with crack closure, regularised by the crack band: pure numpy, per cell.
 
-- Equivalent strain, one measure for tension and one for compression, the larger governing:
+- Two damages act on the two signs of the effective stress σ̄ = C : ε (the spectral split of
+  Faria, Oliver & Cervera, IJSS 35, 1998, 1533-1558; Wu, Li & Faria, IJSS 43, 2006, 583-612;
+  the stiffness recovery of Lee & Fenves, J. Eng. Mech. 124, 1998, 892-900):
+
+      σ = (1 − D_t) σ̄⁺ + (1 − D_c) σ̄⁻,   σ̄± the positive / negative spectral parts of σ̄.
+
+  A crack (D_t) carries nothing in tension and closes in compression: a cell cracked in
+  tension and then compressed uniaxially is as stiff as before (σ̄⁺ = 0), as a CPM link is
+  (`sigmaN = (1 − (epsN > 0 ? omega : 0)) E epsN` in YADE's ConcretePM.cpp). Compression
+  failure has its own damage D_c.
+- Equivalent strains, each driving its own damage:
   - tension, Rankine's: the largest principal effective stress over E, ε_t = ⟨σ̄₁⟩ / E
-    (σ̄ = C : ε), as in the isotropic Rankine damage model (Jirásek & Bažant, Inelastic
-    Analysis of Structures, Wiley 2002, ch. 25; Jirásek, "Damage and smeared crack models",
-    CISM 2011). Damage starts at ft in any state of tension;
+    (Jirásek & Bažant, Inelastic Analysis of Structures, Wiley 2002, ch. 25). Damage starts at
+    ft in any state of tension;
   - compression (tr ε < 0 only), the modified von Mises strain of de Vree, Brekelmans &
     van Gils (Computers & Structures 57, 1995, 581-588), with k = fc / ft:
         ε_c = (k − 1) I₁ / (2k(1 − 2ν)) + 1/(2k) √( ((k − 1) I₁ / (1 − 2ν))² + 12 k J₂ / (1 + ν)² )
     (I₁ = tr ε, J₂ = ½ dev ε : dev ε): 1/k of the axial strain in uniaxial compression, so
-    damage starts at fc; zero in hydrostatic compression. Where tr ε ≥ 0 it is left out: a
-    strain measure with k ≈ 10 would start damage at 0.65 ft in tension without lateral
-    contraction (a crack opening), and a bar pulled apart would dissipate 0.7-0.8 Gf.
-- History κ = max over time of ε_eq (κ ≥ κ₀ = ft / E); damage, exponential softening:
+    damage starts at fc; zero in hydrostatic compression.
+- Histories κ_t, κ_c = the largest ε_t, ε_c so far (κ₀ = ft / E for both); damage,
+  exponential softening, each with its own ε_f:
 
       D(κ) = 1 − (κ₀ / κ) exp(−(κ − κ₀) / ε_f)        (κ > κ₀; 0 below)
 
-  so that in uniaxial tension σ = (1 − D) E ε = ft exp(−(ε − κ₀) / ε_f) past the peak.
-- Crack band (Bažant & Oh, Matériaux et Constructions 16, 1983, 155-177): a crack smeared over an
-  element of width h dissipates Gf per unit area. A band inside the material opens without
-  lateral strain (its neighbours unload): ε = e n⊗n, σ̄ₙₙ = M e with the constrained modulus
-  M = E (1 − ν) / ((1 + ν)(1 − 2ν)), ε_eq = M e / E, and the energy it releases to full damage
-  is (E / M) ft (κ₀/2 + ε_f) per unit volume. Equal to Gf / h:
-      ε_f = (M / E) Gf / (h ft) − κ₀ / 2,
-  which needs h < 2 M Gf / ft² (else the element would snap back). (Calibrated on uniaxial
-  stress instead, an interior band would dissipate E/M = 0.9 Gf at ν = 0.2: measured on a
-  bar, tests/test_fe_damage.py.) Compression softens with the same ε_f on its own measure:
-  no separate compressive fracture energy.
-- h: the element's width along the largest principal strain n when its damage starts,
-  h = 2 / Σ_i |∇N_i · n| at the cell's centre (Oliver, IJNME 28, 1989, 461-474): the side of a
-  box-shaped element along an axis, the height over a face of a tetrahedron.
+  so that past the peak σ = ft exp(−(ε − κ₀) / ε_f) in uniaxial tension and
+  |σ| = fc exp(−(|ε|/k − κ₀) / ε_fc) in uniaxial compression.
+- Crack band (Bažant & Oh, Matériaux et Constructions 16, 1983, 155-177): a band of width h
+  dissipates a fracture energy per unit area whatever the mesh.
+  - Tension: a band inside the material opens without lateral strain (its neighbours unload):
+    ε = e n⊗n, σ̄ₙₙ = M e with the constrained modulus M = E (1 − ν) / ((1 + ν)(1 − 2ν)),
+    ε_t = M e / E; the energy to full damage is (E / M) ft (κ₀/2 + ε_f) per unit volume. Equal
+    to Gf / h: ε_f = (M / E) Gf / (h ft) − κ₀ / 2, which needs h < 2 M Gf / ft².
+  - Compression, calibrated in uniaxial compression (the specimen's test): the energy to full
+    damage is fc² / 2E + k fc ε_fc per unit volume. Equal to Gc / h:
+    ε_fc = (Gc / (h fc) − fc / 2E) / k, which needs h < 2 E Gc / fc².
+  A wider element would snap back: refused, with its size.
+- The energy the damages dissipate is Y_t dD_t + Y_c dD_c, Y± = ½ σ̄± : ε ≥ 0 (Wu, Li & Faria),
+  whose sum is the elastic energy ½ σ̄ : ε.
+- h: the element's width along the principal strain that starts the damage (the largest for
+  tension, the most compressive for compression), h = 2 / Σ_i |∇N_i · n| at the cell's centre
+  (Oliver, IJNME 28, 1989, 461-474): the side of a box-shaped element along an axis, the
+  height over a face of a tetrahedron.
 """
 from dataclasses import dataclass
 
@@ -42,10 +54,12 @@ class ConcreteDamage:
     poisson: float             # ν
     tensile_strength: float    # ft (Pa)
     compressive_strength: float  # fc (Pa)
-    fracture_energy: float     # Gf (J/m²)
+    fracture_energy: float     # Gf (J/m²), tension
+    compressive_fracture_energy: float  # Gc (J/m²), compression
 
     def __post_init__(self):
-        for name in ("young", "tensile_strength", "compressive_strength", "fracture_energy"):
+        for name in ("young", "tensile_strength", "compressive_strength", "fracture_energy",
+                     "compressive_fracture_energy"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and np.isfinite(value) and value > 0):
                 raise ValueError(f"FE damage: {name} must be a positive number, got {value!r}")
@@ -60,6 +74,11 @@ class ConcreteDamage:
         return self.tensile_strength / self.young
 
     @property
+    def strength_ratio(self):
+        """k = fc / ft."""
+        return self.compressive_strength / self.tensile_strength
+
+    @property
     def constrained_ratio(self):
         """M / E, the constrained modulus over Young's."""
         nu = self.poisson
@@ -67,43 +86,57 @@ class ConcreteDamage:
 
     @property
     def max_element_size(self):
-        """2 M Gf / ft²: the largest element width the crack band can regularise."""
+        """2 M Gf / ft²: the largest element width the tension crack band can regularise."""
         return (2 * self.constrained_ratio * self.young * self.fracture_energy
                 / self.tensile_strength ** 2)
 
-    def equivalent_strain(self, eps, floor=0.0):
-        """ε_eq of strain tensors eps (n, 3, 3), symmetric. The principal strains are computed
-        only where ε_eq can pass `floor` (a scalar or per-tensor array: what it must pass to
-        matter): elsewhere the result is a bound below `floor`."""
+    @property
+    def max_compressive_element_size(self):
+        """2 E Gc / fc²: the largest element width the compression band can regularise."""
+        return 2 * self.young * self.compressive_fracture_energy / self.compressive_strength ** 2
+
+    def tension_strain(self, eps, floor=0.0):
+        """ε_t = ⟨σ̄₁⟩ / E of strain tensors eps (n, 3, 3), symmetric. The principal strains are
+        computed only where ε_t can pass `floor` (a scalar or per-tensor array: what it must
+        pass to matter): elsewhere the result is a bound below `floor`."""
         nu = self.poisson
-        k = self.compressive_strength / self.tensile_strength
         lam_e = nu / ((1 + nu) * (1 - 2 * nu))          # λ / E, and 2μ / E = 1 / (1 + ν)
         i1 = np.trace(eps, axis1=1, axis2=2)
-        dev = eps - i1[:, None, None] * np.eye(3) / 3
-        j2 = 0.5 * np.einsum("cab,cab->c", dev, dev)
-        a = (k - 1) * i1 / (1 - 2 * nu)
-        compression = np.where(i1 < 0, (a + np.sqrt(a * a + 12 * k * j2 / (1 + nu) ** 2))
-                               / (2 * k), 0.0)
-        # ε₁ ≤ |ε|: the tension measure needs eigenvalues only where its bound passes floor
-        bound = lam_e * i1 + np.sqrt(2 * j2 + i1 * i1 / 3) / (1 + nu)
+        dev2 = np.einsum("cab,cab->c", eps, eps) - i1 * i1 / 3          # 2 J₂
+        # ε₁ ≤ |ε|: the eigenvalues are needed only where this bound passes floor
+        bound = lam_e * i1 + np.sqrt(np.maximum(dev2, 0.0) + i1 * i1 / 3) / (1 + nu)
         tension = np.maximum(bound, 0.0)
         near = np.flatnonzero(bound > floor)
         if near.size:
             e1 = largest_eigenvalue(eps[near])
             tension[near] = np.maximum(lam_e * i1[near] + e1 / (1 + nu), 0.0)
-        return np.maximum(tension, compression)
+        return tension
+
+    def compression_strain(self, eps):
+        """ε_c of strain tensors eps (n, 3, 3): de Vree's measure where tr ε < 0, else 0."""
+        nu, k = self.poisson, self.strength_ratio
+        i1 = np.trace(eps, axis1=1, axis2=2)
+        j2 = 0.5 * (np.einsum("cab,cab->c", eps, eps) - i1 * i1 / 3)
+        a = (k - 1) * i1 / (1 - 2 * nu)
+        return np.where(i1 < 0, (a + np.sqrt(a * a + 12 * k * np.maximum(j2, 0.0)
+                                             / (1 + nu) ** 2)) / (2 * k), 0.0)
 
     def softening_strain(self, h):
-        """ε_f of elements of width h (array, m); ValueError if one is too wide."""
-        h = np.asarray(h, float)
-        wide = np.flatnonzero(h >= self.max_element_size)
-        if wide.size:
-            raise ValueError(f"FE damage: an element {h.flat[wide[0]]:.4g} m wide is beyond the "
-                             f"crack band's limit 2 M Gf / ft² = {self.max_element_size:.4g} m "
-                             f"(E {self.young:.4g} Pa, Gf {self.fracture_energy:.4g} J/m², ft "
-                             f"{self.tensile_strength:.4g} Pa): refine the mesh")
-        return (self.constrained_ratio * self.fracture_energy / (h * self.tensile_strength)
+        """ε_f in tension of elements of width h (array, m); ValueError if one is too wide."""
+        _check_width(h, self.max_element_size, "tension", "M Gf / ft²", "Gf",
+                     self.fracture_energy, self.tensile_strength, self.young)
+        return (self.constrained_ratio * self.fracture_energy / (np.asarray(h, float)
+                                                                  * self.tensile_strength)
                 - 0.5 * self.kappa0)
+
+    def compressive_softening_strain(self, h):
+        """ε_fc in compression of elements of width h (array, m); ValueError if one is too
+        wide."""
+        _check_width(h, self.max_compressive_element_size, "compression", "E Gc / fc²", "Gc",
+                     self.compressive_fracture_energy, self.compressive_strength, self.young)
+        fc, E = self.compressive_strength, self.young
+        return (self.compressive_fracture_energy / (np.asarray(h, float) * fc)
+                - 0.5 * fc / E) / self.strength_ratio
 
     def damage(self, kappa, eps_f):
         """D(κ) for histories kappa and softening strains eps_f (arrays of one shape)."""
@@ -114,6 +147,70 @@ class ConcreteDamage:
         kk, ef = kappa[above], np.broadcast_to(eps_f, kappa.shape)[above]
         out[above] = 1.0 - (k0 / kk) * np.exp(-(kk - k0) / ef)
         return out
+
+    def effective_stress(self, eps):
+        """σ̄ = C : ε of strain tensors (n, 3, 3)."""
+        nu, E = self.poisson, self.young
+        return (E / (1 + nu)) * (eps + (nu / (1 - 2 * nu)) * np.trace(
+            eps, axis1=1, axis2=2)[:, None, None] * np.eye(3))
+
+    def stress(self, eps, d_t, d_c):
+        """σ = (1 − D_t) σ̄⁺ + (1 − D_c) σ̄⁻ of strain tensors (n, 3, 3)."""
+        sig = self.effective_stress(eps)
+        pos = positive_part(sig)
+        return ((1 - np.asarray(d_t))[:, None, None] * pos
+                + (1 - np.asarray(d_c))[:, None, None] * (sig - pos))
+
+
+def _check_width(h, limit, sign, formula, name, energy, strength, young):
+    h = np.asarray(h, float)
+    wide = np.flatnonzero(h >= limit)
+    if wide.size:
+        raise ValueError(f"FE damage: an element {h.flat[wide[0]]:.4g} m wide is beyond the "
+                         f"{sign} crack band's limit 2 {formula} = {limit:.4g} m (E {young:.4g} "
+                         f"Pa, {name} {energy:.4g} J/m², strength {strength:.4g} Pa): it would "
+                         f"snap back; refine the mesh or raise {name}")
+
+
+def positive_part(a):
+    """The positive spectral parts Σ ⟨λ_i⟩ n_i⊗n_i of symmetric 3 × 3 matrices a (n, 3, 3).
+    A matrix whose eigenvalues share one sign needs no eigenvectors: its characteristic
+    polynomial's coefficients (trace, second invariant, determinant) tell."""
+    tr = np.trace(a, axis1=1, axis2=2)
+    i2 = 0.5 * (tr * tr - np.einsum("cab,cab->c", a, a))
+    det = np.linalg.det(a)
+    out = np.where(((tr >= 0) & (i2 >= 0) & (det >= 0))[:, None, None], a, 0.0)
+    mixed = np.flatnonzero(~(((tr >= 0) & (i2 >= 0) & (det >= 0))
+                             | ((tr <= 0) & (i2 >= 0) & (det <= 0))))
+    if mixed.size:
+        lam, vec = np.linalg.eigh(a[mixed])
+        out[mixed] = np.einsum("cak,ck,cbk->cab", vec, np.maximum(lam, 0.0), vec)
+    return out
+
+
+def fit_compressive_fracture_energy(strain, stress, length, young, width):
+    """Gc of the compression band that follows a specimen's measured post-peak branch.
+
+    strain, stress: the specimen's curve (shortening between the loaded ends, compression
+    negative, as the calibration's compression test records it); length: the specimen's (m);
+    young: the FE's E; width: the FE cells' h. With a band of width h softening and the rest
+    unloading elastically, the shortening past the peak at a stress σ is, in excess of the
+    elastic L σ / E, δ(σ) = h (fc − σ)/E + δ_c ln(fc / σ), δ_c = h k ε_fc. δ_c is the
+    least-squares fit of the measured excess (taken from its value at the peak) on the
+    post-peak samples, and Gc = h (fc² / 2E + k fc ε_fc) = h fc² / 2E + fc δ_c.
+    Returns (Gc, δ_c, the number of post-peak samples fitted)."""
+    s, e = -np.asarray(stress, float), -np.asarray(strain, float)
+    peak = int(np.argmax(s))
+    fc = s[peak]
+    post = slice(peak + 1, None)
+    if s[post].size < 2 or not s[post].min() < 0.99 * fc:
+        raise ValueError(f"compression curve: no post-peak branch to fit (peak at sample "
+                         f"{peak} of {s.size})")
+    excess = length * (e - s / young)
+    sp, ex = s[post], excess[post] - excess[peak] - width * (fc - s[post]) / young
+    log = np.log(fc / sp)
+    delta = float(log @ ex / (log @ log))
+    return width * fc * fc / (2 * young) + fc * delta, delta, int(sp.size)
 
 
 def largest_eigenvalue(a):

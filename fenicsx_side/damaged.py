@@ -1,16 +1,18 @@
-"""The explicit FE model with concrete damage (fenicsx_side.damage_law): one damage variable per
-cell, from the cell's average strain, that only grows and takes away the cell's stiffness to
-its average strain.
+"""The explicit FE model with concrete damage (fenicsx_side.damage_law): per cell a tension
+damage and a compression damage, from the cell's average strain, that only grow and take the
+cell's stiffness to its average strain on the two signs of the effective stress (a crack
+closes in compression).
 
-Energy W = ½ u·K u − ½ Σ_c D_c V_c ε̄_c : C : ε̄_c, ε̄_c the cell's mean strain, so the internal
-force is f = K u − Gᵀ(D V C ε̄): PETSc's elastic mat-vec, one sparse mat-vec for the cells'
-mean gradients G u and one with Gᵀ, and numpy arrays over the cells in between; the cost does
-not depend on how many cells are damaged. A cell's stiffness is its one-point part
-V B̄ᵀ C B̄ plus what the quadrature adds (hourglass-like modes, positive semi-definite);
-damage takes the first, so a cracked cell opens freely and the rest stays stable, as explicit
-codes keep their hourglass control. Uniform strains, and with them the law's curve in a cell,
-are exact. With a weight α (the consistent bridging weighting) the means are α's, as in K.
-The energy dissipated is Σ_c ½ V_c ε̄:C:ε̄ ΔD_c (energy release rate times the increment).
+Cell stress on the mean strain ε̄_c: σ_c = σ̄_c − D_t σ̄⁺_c − D_c σ̄⁻_c, σ̄ = C : ε̄. The internal
+force is f = K u − Gᵀ(V (D_t σ̄⁺ + D_c σ̄⁻)): PETSc's elastic mat-vec, one sparse mat-vec for
+the cells' mean gradients G u and one with Gᵀ, and numpy arrays over the cells in between.
+A cell's stiffness is its one-point part V B̄ᵀ C B̄ plus what the quadrature adds
+(hourglass-like modes, positive semi-definite); damage takes from the first, so a cracked cell
+opens freely and the rest stays stable, as explicit codes keep their hourglass control.
+Uniform strains, and with them the law's curves in a cell, are exact. With a weight α (the
+consistent bridging weighting) the means are α's, as in K. The strain energy is ½ u·f; the
+energy dissipated is Σ_c V_c (½ σ̄⁺:ε̄ ΔD_t + ½ σ̄⁻:ε̄ ΔD_c) (energy release rates times the
+increments).
 
 Serial only: a cell's strain needs its ghost nodes, which this model does not exchange.
 """
@@ -18,7 +20,7 @@ import basix
 import numpy as np
 import scipy.sparse as sp
 
-from fenicsx_side.damage_law import band_width
+from fenicsx_side.damage_law import band_width, positive_part
 from fenicsx_side.model import ElasticModel
 
 _BASIX_CELL = {4: basix.CellType.tetrahedron, 8: basix.CellType.hexahedron}
@@ -27,10 +29,13 @@ _BASIX_CELL = {4: basix.CellType.tetrahedron, 8: basix.CellType.hexahedron}
 class DamageModel(ElasticModel):
     """ElasticModel with the damage law `law` (a ConcreteDamage: E and ν are its own).
 
-    Per owned cell: kappa (history of ε_eq, 0 before any strain), eps_f (softening strain, NaN
-    before damage starts), damage D, cell_volume, cell_centres; `dissipated` (J), the energy
-    damage has dissipated."""
+    Per owned cell: kappa, kappa_c (histories of the tension and compression equivalent
+    strains, 0 before any strain), eps_f, eps_fc (their softening strains, NaN before that
+    damage starts), damage_t, damage_c, damage (the larger of the two: a cell is broken when
+    either is), cell_volume, cell_centres; `dissipated` (J), the energy damage has
+    dissipated."""
     carries_damage = True
+    _STATE = ("kappa", "kappa_c", "eps_f", "eps_fc", "damage_t", "damage_c", "damage")
 
     def __init__(self, msh, law, rho, dirichlet=(), quadrature_degree=2, weight=None):
         super().__init__(msh, law.young, law.poisson, rho, dirichlet, quadrature_degree, weight)
@@ -39,11 +44,12 @@ class DamageModel(ElasticModel):
         self.law = law
         self._cells_geometry(quadrature_degree, weight)
         n = len(self.cell_nodes)
-        self.kappa = np.zeros(n)
-        self.eps_f = np.full(n, np.nan)
-        self.damage = np.zeros(n)
+        self.kappa, self.kappa_c = np.zeros(n), np.zeros(n)
+        self.eps_f, self.eps_fc = np.full(n, np.nan), np.full(n, np.nan)
+        self.damage_t, self.damage_c, self.damage = np.zeros(n), np.zeros(n), np.zeros(n)
         self.dissipated = 0.0
         self._force = np.zeros(self.ndof)
+        self._lost = np.zeros((n, 3, 3))
 
     def _cells_geometry(self, degree, weight):
         """Per cell: volume, centre, mean gradients (plain, for the strain the law reads, and
@@ -90,50 +96,60 @@ class DamageModel(ElasticModel):
         g = ((self._gradient if operator is None else operator) @ self._u).reshape(-1, 3, 3)
         return 0.5 * (g + g.transpose(0, 2, 1))
 
-    def _stress(self, eps):
-        """C : ε of strain tensors (n, 3, 3)."""
-        return 2 * self.mu * eps + self.lmbda * np.trace(eps, axis1=1, axis2=2)[:, None,
-                                                                                None] * np.eye(3)
-
-    def _release(self, cells, eps):
-        """½ V ε̄:C:ε̄ of `cells` (α-weighted; eps: all cells' plain strains): the energy their
-        damage takes per unit of D."""
-        if self._weighted_gradient is not self._gradient:
-            eps = self.cell_strain(self._weighted_gradient)
-        eps = eps[cells]
-        return 0.5 * self._weighted_volume[cells] * np.einsum("cab,cab->c", self._stress(eps),
-                                                              eps)
+    def _weighted(self, eps, cells=slice(None)):
+        """The α-weighted strains of `cells` (eps: all cells' plain ones)."""
+        if self._weighted_gradient is self._gradient:
+            return eps[cells]
+        return self.cell_strain(self._weighted_gradient)[cells]
 
     def update_damage(self, eps=None):
-        """κ, ε_f and D from the current u (eps: its cell strains, if already known), and the
-        energy the increments dissipate."""
+        """κ, κ_c, their ε_f and the damages from the current u (eps: its cell strains, if
+        already known), and the energy the increments dissipate."""
+        law = self.law
         eps = self.cell_strain() if eps is None else eps
-        floor = np.maximum(self.kappa, self.law.kappa0)
-        eq = self.law.equivalent_strain(eps, floor)
-        grow = np.flatnonzero(eq > floor)
-        if grow.size == 0:
+        floor_t = np.maximum(self.kappa, law.kappa0)
+        eq_t = law.tension_strain(eps, floor_t)
+        eq_c = law.compression_strain(eps)
+        grow_t = np.flatnonzero(eq_t > floor_t)
+        grow_c = np.flatnonzero(eq_c > np.maximum(self.kappa_c, law.kappa0))
+        if grow_t.size == 0 and grow_c.size == 0:
             return
-        start = grow[np.isnan(self.eps_f[grow])]
-        if start.size:         # band width along the largest principal strain, at the start
-            direction = np.linalg.eigh(eps[start])[1][:, :, -1]
-            self.eps_f[start] = self.law.softening_strain(
-                band_width(self._centre_grad[start], direction))
-        self.kappa[grow] = eq[grow]
-        new = self.law.damage(self.kappa[grow], self.eps_f[grow])
-        self.dissipated += float(self._release(grow, eps) @ (new - self.damage[grow]))
-        self.damage[grow] = new
+        for grow, eq, kappa, eps_f, softening, axis in (
+                (grow_t, eq_t, self.kappa, self.eps_f, law.softening_strain, -1),
+                (grow_c, eq_c, self.kappa_c, self.eps_fc, law.compressive_softening_strain, 0)):
+            start = grow[np.isnan(eps_f[grow])]
+            if start.size:     # band width along the principal strain that starts it
+                direction = np.linalg.eigh(eps[start])[1][:, :, axis]
+                eps_f[start] = softening(band_width(self._centre_grad[start], direction))
+            kappa[grow] = eq[grow]
+        grow = np.union1d(grow_t, grow_c)
+        new_t = law.damage(self.kappa[grow], self.eps_f[grow])
+        new_c = law.damage(self.kappa_c[grow], self.eps_fc[grow])
+        w = self._weighted(eps, grow)
+        sig = law.effective_stress(w)
+        pos = positive_part(sig)
+        y_t = 0.5 * np.einsum("cab,cab->c", pos, w)
+        y_c = 0.5 * np.einsum("cab,cab->c", sig - pos, w)
+        self.dissipated += float(self._weighted_volume[grow] @ (
+            y_t * (new_t - self.damage_t[grow]) + y_c * (new_c - self.damage_c[grow])))
+        self.damage_t[grow], self.damage_c[grow] = new_t, new_c
+        self.damage[grow] = np.maximum(new_t, new_c)
 
     # --- forces and energies ----------------------------------------------------------------
     def internal_force(self, eps=None):
-        """K u − Gᵀ(D V C ε̄) (a buffer reused at the next call; eps: the cells' plain strains
-        of the current u, if already known)."""
+        """K u − Gᵀ(V (D_t σ̄⁺ + D_c σ̄⁻)) (a buffer reused at the next call; eps: the cells'
+        plain strains of the current u, if already known)."""
         self._K_petsc.mult(self._u_vec, self._work_vec)
         self._force[:] = self._work
-        if self.damage.any():
-            if eps is None or self._weighted_gradient is not self._gradient:
-                eps = self.cell_strain(self._weighted_gradient)
-            lost = (self.damage * self._weighted_volume)[:, None, None] * self._stress(eps)
-            self._force -= self._weighted_gradient_t @ lost.ravel()
+        hit = np.flatnonzero(self.damage)
+        if hit.size:
+            eps = self.cell_strain() if eps is None else eps
+            sig = self.law.effective_stress(self._weighted(eps, hit))
+            pos = positive_part(sig)
+            self._lost[hit] = self._weighted_volume[hit, None, None] * (
+                self.damage_t[hit, None, None] * pos + self.damage_c[hit, None, None]
+                * (sig - pos))
+            self._force -= self._weighted_gradient_t @ self._lost.ravel()
         return self._force
 
     def predict(self, dt):
@@ -152,26 +168,30 @@ class DamageModel(ElasticModel):
             self._members_energy()
 
     def stress(self):
-        """The elastic cell stresses times (1 − D)."""
+        """The cells' average stresses with the law's split of their effective stress."""
         s = super().stress()
-        keep = 1.0 - self.damage
-        s.tensor *= keep[:, None, None]
-        s.von_mises *= keep
-        s.max_principal *= keep
+        sig = s.tensor
+        pos = positive_part(sig)
+        s.tensor = sig - self.damage_t[:, None, None] * pos - self.damage_c[:, None, None] * (
+            sig - pos)
+        dev = s.tensor - np.trace(s.tensor, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3
+        s.von_mises = np.sqrt(1.5 * np.einsum("cab,cab->c", dev, dev))
+        s.max_principal = np.linalg.eigvalsh(s.tensor)[:, -1]
         return s
 
     def take_state(self, old, nodes, cells):
         super().take_state(old, nodes, cells)
-        self.kappa[:], self.eps_f[:], self.damage[:] = (old.kappa[cells], old.eps_f[cells],
-                                                        old.damage[cells])
+        for name in self._STATE:
+            getattr(self, name)[:] = getattr(old, name)[cells]
         self.dissipated = old.dissipated
 
     # --- history, for checkpoints -----------------------------------------------------------
     def history(self):
-        return {"kappa": self.kappa, "eps_f": self.eps_f, "damage": self.damage,
+        return {**{name: getattr(self, name) for name in self._STATE},
                 "dissipated": np.array(self.dissipated), **super().history()}
 
     def restore_history(self, h):
-        self.kappa[:], self.eps_f[:], self.damage[:] = h["kappa"], h["eps_f"], h["damage"]
+        for name in self._STATE:
+            getattr(self, name)[:] = h[name]
         self.dissipated = float(h["dissipated"])
         super().restore_history(h)
