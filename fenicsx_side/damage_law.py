@@ -188,16 +188,17 @@ def positive_part(a):
     return out
 
 
-def fit_compressive_fracture_energy(strain, stress, length, young, width):
+def fit_compressive_fracture_energy(strain, stress, length, specimen_young, young, width):
     """Gc of the compression band that follows a specimen's measured post-peak branch.
 
     strain, stress: the specimen's curve (shortening between the loaded ends, compression
     negative, as the calibration's compression test records it); length: the specimen's (m);
-    young: the FE's E; width: the FE cells' h. With a band of width h softening and the rest
-    unloading elastically, the shortening past the peak at a stress σ is, in excess of the
-    elastic L σ / E, δ(σ) = h (fc − σ)/E + δ_c ln(fc / σ), δ_c = h k ε_fc. δ_c is the
-    least-squares fit of the measured excess (taken from its value at the peak) on the
-    post-peak samples, and Gc = h (fc² / 2E + k fc ε_fc) = h fc² / 2E + fc δ_c.
+    specimen_young: its modulus between the ends (its elastic unloading); young: the FE's E;
+    width: the FE cells' h. Past the peak the specimen shortens, beyond its elastic L σ / E_s,
+    by δ(σ) (taken from its value at the peak). In the FE, a band of width h softening and
+    the rest unloading elastically, δ(σ) = h (fc − σ)/E + δ_c ln(fc / σ), δ_c = h k ε_fc: δ_c
+    is the least-squares fit of the measured δ on the post-peak samples, and
+    Gc = h (fc² / 2E + k fc ε_fc) = h fc² / 2E + fc δ_c.
     Returns (Gc, δ_c, the number of post-peak samples fitted)."""
     s, e = -np.asarray(stress, float), -np.asarray(strain, float)
     peak = int(np.argmax(s))
@@ -206,7 +207,7 @@ def fit_compressive_fracture_energy(strain, stress, length, young, width):
     if s[post].size < 2 or not s[post].min() < 0.99 * fc:
         raise ValueError(f"compression curve: no post-peak branch to fit (peak at sample "
                          f"{peak} of {s.size})")
-    excess = length * (e - s / young)
+    excess = length * (e - s / specimen_young)
     sp, ex = s[post], excess[post] - excess[peak] - width * (fc - s[post]) / young
     log = np.log(fc / sp)
     delta = float(log @ ex / (log @ log))

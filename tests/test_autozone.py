@@ -71,7 +71,7 @@ def test_an_fe_that_damages_trips_on_its_damage_not_its_stress():
     found from the law itself, and every cell is flagged; stresses past ft do not trip."""
     from fenicsx_side.damage_law import ConcreteDamage
     from fenicsx_side.damaged import DamageModel
-    law = ConcreteDamage(E, NU, FT, 30e6, 100.0)
+    law = ConcreteDamage(E, NU, FT, 30e6, 100.0, 30e3)
     grid = CellGrid(P0, P1, N)
     zone = np.zeros(grid.shape, bool)
     zone[0, 0] = True

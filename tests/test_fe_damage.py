@@ -130,21 +130,23 @@ def test_an_element_too_wide_for_either_fracture_energy_is_refused():
 
 
 def test_the_compression_fit_finds_the_band_it_was_made_from():
-    """A specimen curve made by the band model (length L, a band h softening, the rest
-    elastic, a linear pre-peak branch) gives back its Gc exactly."""
+    """A specimen curve made by the band model (length L, a band h softening, the specimen
+    elastic with its own modulus, a linear pre-peak branch) gives back its Gc exactly."""
     L, h, E, fc = 0.56, 0.05, LAW.young, LAW.compressive_strength
     ef = LAW.compressive_softening_strain(h)
     k = LAW.strength_ratio
     s_post = np.linspace(fc, 0.7 * fc, 50)[1:]
     e_band = fc / E + k * ef * np.log(fc / s_post)
-    e_post = ((L - h) * s_post / E + h * e_band) / L
+    Es = 0.8 * E               # the specimen's own modulus: its elastic part unloads with it
+    # the band's inelastic shortening h (e_band − σ/E), the specimen's elastic L σ / E_s
+    e_post = (L * s_post / Es + h * (e_band - s_post / E)) / L
     s = np.concatenate([np.linspace(0, fc, 30), s_post])
-    e = np.concatenate([np.linspace(0, fc / E, 30), e_post])
-    gc, delta, n = fit_compressive_fracture_energy(-e, -s, L, E, h)
+    e = np.concatenate([np.linspace(0, fc / Es, 30), e_post])
+    gc, delta, n = fit_compressive_fracture_energy(-e, -s, L, Es, E, h)
     assert gc == pytest.approx(LAW.compressive_fracture_energy, rel=1e-9)
     assert delta == pytest.approx(h * k * ef, rel=1e-9) and n == 49
     with pytest.raises(ValueError, match="no post-peak branch"):
-        fit_compressive_fracture_energy(-e[:30], -s[:30], L, E, h)
+        fit_compressive_fracture_energy(-e[:30], -s[:30], L, Es, E, h)
 
 
 def test_band_width_is_the_side_along_the_direction_and_the_height_of_a_tetrahedron():

@@ -6,6 +6,8 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 SLAB = (2.5, 2.0, 0.28)
 
 
@@ -64,6 +66,16 @@ class Concrete:
     fracture_energy: float      # Gf (J/m²) of the separation test, None without one (a lower
                                 # bound if the specimen did not separate: the record says)
     record: str                 # the calibration.json it comes from
+    compression: tuple          # the compression test: (strain, stress) arrays, length (m),
+                                # modulus between the ends (Pa)
+
+    def compressive_fracture_energy(self, young, width):
+        """Gc of an FE compression band of cells `width` wide and modulus `young` that follows
+        this set's measured post-peak branch (fenicsx_side.damage_law)."""
+        from fenicsx_side.damage_law import fit_compressive_fracture_energy
+        strain, stress, length, specimen_young = self.compression
+        return fit_compressive_fracture_energy(strain, stress, length, specimen_young, young,
+                                               width)[0]
 
 
 @functools.cache
@@ -75,5 +87,8 @@ def concrete_set(scale, name):
     record = json.loads(path.read_text())
     m = record["measured"]
     cpm = {k: v for k, v in record["params"].items() if k != "density"}
+    curve = record["curves"]["compression"]
     return Concrete(cpm, m["nu"], m["fc"], m["ft"], m.get("fracture_energy"),
-                    str(path.relative_to(Path(__file__).parents[2])))
+                    str(path.relative_to(Path(__file__).parents[2])),
+                    (np.array(curve["strain"]), np.array(curve["stress"]), record["size"][0],
+                     m["E_ends"]))

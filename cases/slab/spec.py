@@ -133,6 +133,11 @@ class SlabSpec:
     fracture_energy: float = key(None, number, positive, section="material",
                                  help="Gf (J/m²) of the FE damage law; default the concrete's "
                                       "separation test")
+    compressive_fracture_energy: float = key(
+        None, number, positive, section="material",
+        help="Gc (J/m²) of the FE damage law's compression band; default fitted to the "
+             "post-peak branch of the concrete's compression test on the slab's FE cells "
+             "(docs/fe-damage.md)")
     fe_material: str = key("elastic", choice("elastic", "damage"), section="fe",
                            name="material",
                            help="the FE part: 'elastic', as in the paper, or 'damage': the "
@@ -206,7 +211,8 @@ class SlabSpec:
         return dict(young=self.young, poisson=self.poisson,
                     tensile_strength=self.tensile_strength,
                     compressive_strength=self.compressive_strength,
-                    fracture_energy=self.fracture_energy)
+                    fracture_energy=self.fracture_energy,
+                    compressive_fracture_energy=self.compressive_fracture_energy)
 
     def _check_cells(self):
         if self.zone != "box":
@@ -229,13 +235,22 @@ class SlabSpec:
                              f"(--fracture-energy)")
         from cases.slab.geometry import slab_grid
         from fenicsx_side.damage_law import ConcreteDamage
+        grid = slab_grid(self)
+        widest = max(grid.h, SLAB[2] / grid.n[2])      # no cell is wider along any direction
+        if self.compressive_fracture_energy is None:
+            self.compressive_fracture_energy = material.compressive_fracture_energy(
+                self.young, widest)
         try:
             law = ConcreteDamage(**self.damage_law())
         except ValueError as e:
             raise ValueError(f"slab: {e}") from None
-        grid = slab_grid(self)
-        widest = max(grid.h, SLAB[2] / grid.n[2])      # no cell is wider along any direction
         if widest >= law.max_element_size:
             raise ValueError(f"slab: FE cells {widest:.3g} m wide are beyond the crack band's "
                              f"limit 2 M Gf / ft² = {law.max_element_size:.3g} m: a smaller "
                              f"fe_ratio, or a larger fracture_energy")
+        if widest >= law.max_compressive_element_size:
+            raise ValueError(f"slab: compressive_fracture_energy = "
+                             f"{self.compressive_fracture_energy:.4g} J/m² would snap back on "
+                             f"FE cells {widest:.3g} m wide: it must exceed fc² h / 2E = "
+                             f"{self.compressive_strength ** 2 * widest / (2 * self.young):.4g}"
+                             f" J/m² (or a smaller fe_ratio)")

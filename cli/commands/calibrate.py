@@ -1,7 +1,9 @@
 """`calibrate`: uniaxial compression and tension tests of a CPM packing, a tension test to full
 separation for the fracture energy; fit of the CPM micro-parameters to target E, fc, Gf
-(and ν)."""
+(and ν); with --fe-twin, the slab's FE damage law on the same specimens against the scale's
+calibration record (cases/slab/twin.py)."""
 from cases.slab import SCALES
+from cases.slab.scales import CONCRETES
 from cli.commands._options import add_out, add_threads
 
 NAME = "calibrate"
@@ -49,6 +51,14 @@ def configure(p):
                    help="relative tolerance on Gf of the fit (default 0.05)")
     p.add_argument("--max-iter", type=int, default=6, help="fit iterations (default 6)")
     p.add_argument("--seed", type=int, default=1, help="packing seed")
+    p.add_argument("--fe-twin", action="store_true",
+                   help="no spheres: run the slab's FE damage law of --scale on the specimens "
+                        "of the scale's calibration record (its --concrete set; --gf gives the "
+                        "FE's Gf where the record has none) and compare the curves "
+                        "(twin.json, twin.png)")
+    p.add_argument("--concrete", choices=CONCRETES, default="plain",
+                   help="with --fe-twin: the scale's CPM set whose record is compared "
+                        "(default plain)")
     add_threads(p)
     add_out(p, "results folder")
 
@@ -60,6 +70,8 @@ def run(args):
     from yade_side.fracture import mc2010_fracture_energy
     from yade_side.material import ConcreteParams
 
+    if args.fe_twin:
+        return run_twin(args)
     # every input is checked before YADE is imported and the results folder made
     if not 0 < args.tol < 1:
         raise ValueError(f"--tol must be in (0, 1), got {args.tol!r}")
@@ -106,6 +118,47 @@ def run(args):
     _write(out, radius, size, sample, target, loading, result, macro)
     plot_curves(out / "stress_strain.png", c, t, macro, radius)
     _print_result(result, macro, out)
+    return 0
+
+
+def run_twin(args):
+    """--fe-twin: the FE law on the record's specimens; one line and exit 2 for a scale with
+    no record."""
+    import json
+    from cases.slab import twin
+    from cases.slab.scales import CALIBRATIONS
+    from cases.slab.spec import SlabSpec
+    from common.files import write_json
+    from orchestrator.run.folder import prepare_out
+    if args.radius is not None:
+        raise ValueError(f"--fe-twin compares with a scale's calibration record: give --scale, "
+                         f"not --radius {args.radius!r}")
+    path = CALIBRATIONS / f"{args.scale}-{args.concrete}.json"
+    if not path.is_file():
+        raise ValueError(f"--fe-twin: scale {args.scale!r} has no calibration record for "
+                         f"concrete {args.concrete!r} ({path.name} is not in {CALIBRATIONS})")
+    spec = SlabSpec(scale=args.scale, concrete=args.concrete, fe_material="damage",
+                    fracture_energy=args.gf)
+    record = json.loads(path.read_text())
+    out = prepare_out(args.out, args.force)
+    result = twin.twin(spec, record)
+    law = spec.damage_law()
+    table = {mode: dict(figures, cells=list(fe.cells), h=fe.h)
+             for mode, (fe, figures) in result.items()}
+    write_json(out / "twin.json", dict(scale=args.scale, concrete=args.concrete,
+                                       record=path.name, law=law, specimens=table))
+    title = (f"{args.scale} scale, {args.concrete} set: FE E {law['young'] / 1e9:.1f} GPa, "
+             f"ft {law['tensile_strength'] / 1e6:.2f} MPa, fc "
+             f"{law['compressive_strength'] / 1e6:.1f} MPa, Gf {law['fracture_energy']:.0f}, "
+             f"Gc {law['compressive_fracture_energy']:.0f} J/m²")
+    twin.plot(out / "twin.png", record, result, title)
+    print(title)
+    print("specimen     cells  nRMS to peak  peak spheres / FE (MPa)  work spheres / FE (J)")
+    for mode, f in table.items():
+        print(f"{mode:<12} {'x'.join(map(str, f['cells'])):<6} {f['nrms_to_peak']:>12.3f}  "
+              f"{f['peak_spheres'] / 1e6:>10.2f} / {f['peak_fe'] / 1e6:<10.2f}  "
+              f"{f['work_spheres_J']:>8.1f} / {f['work_fe_J']:<8.1f}")
+    print(f"results in {out}")
     return 0
 
 

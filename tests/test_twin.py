@@ -1,0 +1,40 @@
+"""The FE twin's figures (cases/slab/twin.py) against exact answers, and its bad input."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from cases.slab.twin import TwinRun, judge
+
+
+def test_a_twin_that_is_the_spheres_curve_scores_zero_and_the_exact_work():
+    """The same curve on other samples: nRMS 0 to the peak (piecewise-linear, so exact at the
+    spheres' samples), work ratio 1; a curve 10 % higher everywhere: nRMS 0.1 × the RMS of
+    the spheres' stress to the peak over the peak, work 1.1."""
+    e = np.linspace(0, 2e-3, 41)
+    s = np.where(e < 1e-3, 3e10 * e, 3e7 * np.exp(-(e - 1e-3) / 5e-4))
+    fine = np.linspace(0, 2.1e-3, 421)
+    fe = TwinRun("tension", fine, np.interp(fine, e, s), 0.0, (2, 1, 1), 0.1)
+    f = judge(e, s, fe, volume=2.0)
+    assert f["nrms_to_peak"] == pytest.approx(0.0, abs=1e-12)
+    assert f["work_ratio"] == pytest.approx(1.0, rel=1e-12)
+    assert f["work_spheres_J"] == pytest.approx(2.0 * np.trapz(s, e), rel=1e-12)
+    higher = TwinRun("compression", -fine, -1.1 * np.interp(fine, e, s), 0.0, (2, 1, 1), 0.1)
+    f = judge(-e, -s, higher, volume=2.0)
+    upto = s[:np.argmax(s) + 1]
+    assert f["nrms_to_peak"] == pytest.approx(0.1 * np.sqrt(np.mean(upto ** 2)) / s.max(),
+                                              rel=1e-9)
+    assert f["work_ratio"] == pytest.approx(1.1, rel=1e-9)
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--scale", "paper", "--concrete", "gf"], "no calibration record"),
+    (["--radius", "0.02"], "give --scale"),
+])
+def test_a_twin_without_a_record_is_refused_in_one_line(tmp_path, args, says):
+    run = subprocess.run([sys.executable, "-m", "cli", "calibrate", "--fe-twin", *args,
+                          "--out", str(tmp_path / "twin")], capture_output=True, text=True)
+    assert run.returncode == 2
+    assert says in run.stderr and len(run.stderr.strip().splitlines()) == 1
+    assert "Traceback" not in run.stderr
