@@ -106,11 +106,12 @@ def twin(spec, record, rate_speedup=RATE_SPEEDUP):
     """Both specimens of the scale's record with the slab's FE law (spec: a SlabSpec with
     fe_material 'damage'). Returns {mode: (TwinRun, figures)}."""
     from cases.slab.geometry import slab_grid
+    from cases.slab.scales import SLAB
     from fenicsx_side.damage_law import ConcreteDamage
     law = ConcreteDamage(**spec.damage_law())
     grid = slab_grid(spec)
     size = tuple(record["size"])
-    nz = max(1, round(size[2] / (0.28 / grid.n[2])))
+    nz = max(1, round(size[2] / (SLAB[2] / grid.n[2])))
     loading = record["loading"]
     volume = float(np.prod(size))
     out = {}
