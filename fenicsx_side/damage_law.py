@@ -47,6 +47,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# positive_part: eigenvalues closer than this × the largest go to LAPACK (see there)
+NEAR_ROOT = 1e-3
+# Symmetric tensors are handled as their six components, component-major (6, n): xx, yy, zz,
+# yz, xz, xy (tensor components, not engineering shears), so that the law's algebra runs on
+# whole contiguous arrays of cells.
+PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
+
 
 @dataclass(frozen=True)
 class ConcreteDamage:
@@ -96,27 +103,27 @@ class ConcreteDamage:
         return 2 * self.young * self.compressive_fracture_energy / self.compressive_strength ** 2
 
     def tension_strain(self, eps, floor=0.0):
-        """ε_t = ⟨σ̄₁⟩ / E of strain tensors eps (n, 3, 3), symmetric. The principal strains are
-        computed only where ε_t can pass `floor` (a scalar or per-tensor array: what it must
-        pass to matter): elsewhere the result is a bound below `floor`."""
+        """ε_t = ⟨σ̄₁⟩ / E of strains eps (6, n). The principal strains are computed only where
+        ε_t can pass `floor` (a scalar or per-cell array: what it must pass to matter):
+        elsewhere the result is a bound below `floor`."""
         nu = self.poisson
         lam_e = nu / ((1 + nu) * (1 - 2 * nu))          # λ / E, and 2μ / E = 1 / (1 + ν)
-        i1 = np.trace(eps, axis1=1, axis2=2)
-        dev2 = np.einsum("cab,cab->c", eps, eps) - i1 * i1 / 3          # 2 J₂
+        i1 = trace(eps)
+        dev2 = contract(eps, eps) - i1 * i1 / 3          # 2 J₂
         # ε₁ ≤ |ε|: the eigenvalues are needed only where this bound passes floor
         bound = lam_e * i1 + np.sqrt(np.maximum(dev2, 0.0) + i1 * i1 / 3) / (1 + nu)
         tension = np.maximum(bound, 0.0)
         near = np.flatnonzero(bound > floor)
         if near.size:
-            e1 = largest_eigenvalue(eps[near])
+            e1 = eigenvalues(eps[:, near])[0]
             tension[near] = np.maximum(lam_e * i1[near] + e1 / (1 + nu), 0.0)
         return tension
 
     def compression_strain(self, eps):
-        """ε_c of strain tensors eps (n, 3, 3): de Vree's measure where tr ε < 0, else 0."""
+        """ε_c of strains eps (6, n): de Vree's measure where tr ε < 0, else 0."""
         nu, k = self.poisson, self.strength_ratio
-        i1 = np.trace(eps, axis1=1, axis2=2)
-        j2 = 0.5 * (np.einsum("cab,cab->c", eps, eps) - i1 * i1 / 3)
+        i1 = trace(eps)
+        j2 = 0.5 * (contract(eps, eps) - i1 * i1 / 3)
         a = (k - 1) * i1 / (1 - 2 * nu)
         return np.where(i1 < 0, (a + np.sqrt(a * a + 12 * k * np.maximum(j2, 0.0)
                                              / (1 + nu) ** 2)) / (2 * k), 0.0)
@@ -149,17 +156,17 @@ class ConcreteDamage:
         return out
 
     def effective_stress(self, eps):
-        """σ̄ = C : ε of strain tensors (n, 3, 3)."""
+        """σ̄ = C : ε of strains (6, n)."""
         nu, E = self.poisson, self.young
-        return (E / (1 + nu)) * (eps + (nu / (1 - 2 * nu)) * np.trace(
-            eps, axis1=1, axis2=2)[:, None, None] * np.eye(3))
+        sig = (E / (1 + nu)) * eps
+        sig[:3] += (E * nu / ((1 + nu) * (1 - 2 * nu))) * trace(eps)
+        return sig
 
     def stress(self, eps, d_t, d_c):
-        """σ = (1 − D_t) σ̄⁺ + (1 − D_c) σ̄⁻ of strain tensors (n, 3, 3)."""
+        """σ = (1 − D_t) σ̄⁺ + (1 − D_c) σ̄⁻ of strains (6, n)."""
         sig = self.effective_stress(eps)
         pos = positive_part(sig)
-        return ((1 - np.asarray(d_t))[:, None, None] * pos
-                + (1 - np.asarray(d_c))[:, None, None] * (sig - pos))
+        return (1 - np.asarray(d_t)) * pos + (1 - np.asarray(d_c)) * (sig - pos)
 
 
 def _check_width(h, limit, sign, formula, name, energy, strength, young):
@@ -172,19 +179,64 @@ def _check_width(h, limit, sign, formula, name, energy, strength, young):
                          f"snap back; refine the mesh or raise {name}")
 
 
-def positive_part(a):
-    """The positive spectral parts Σ ⟨λ_i⟩ n_i⊗n_i of symmetric 3 × 3 matrices a (n, 3, 3).
-    A matrix whose eigenvalues share one sign needs no eigenvectors: its characteristic
-    polynomial's coefficients (trace, second invariant, determinant) tell."""
-    tr = np.trace(a, axis1=1, axis2=2)
-    i2 = 0.5 * (tr * tr - np.einsum("cab,cab->c", a, a))
-    det = np.linalg.det(a)
-    out = np.where(((tr >= 0) & (i2 >= 0) & (det >= 0))[:, None, None], a, 0.0)
-    mixed = np.flatnonzero(~(((tr >= 0) & (i2 >= 0) & (det >= 0))
-                             | ((tr <= 0) & (i2 >= 0) & (det <= 0))))
-    if mixed.size:
-        lam, vec = np.linalg.eigh(a[mixed])
-        out[mixed] = np.einsum("cak,ck,cbk->cab", vec, np.maximum(lam, 0.0), vec)
+def components(t):
+    """The components (6, n) of symmetric tensors t (n, 3, 3)."""
+    return np.stack([t[:, a, b] for a, b in PAIRS])
+
+
+def tensors(v):
+    """The symmetric tensors (n, 3, 3) of components v (6, n)."""
+    out = np.empty((v.shape[1], 3, 3))
+    for k, (a, b) in enumerate(PAIRS):
+        out[:, a, b] = out[:, b, a] = v[k]
+    return out
+
+
+def trace(v):
+    return v[0] + v[1] + v[2]
+
+
+def contract(u, v):
+    """u : v of components (6, n)."""
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2] + 2 * (u[3] * v[3] + u[4] * v[4]
+                                                          + u[5] * v[5])
+
+
+def square(v):
+    """The components of v · v."""
+    xx, yy, zz, yz, xz, xy = v
+    return np.stack([xx * xx + xy * xy + xz * xz, xy * xy + yy * yy + yz * yz,
+                     xz * xz + yz * yz + zz * zz, xy * xz + yy * yz + yz * zz,
+                     xx * xz + xy * yz + xz * zz, xx * xy + xy * yy + xz * yz])
+
+
+def positive_part(v):
+    """The positive spectral parts Σ ⟨λ_i⟩ n_i⊗n_i of symmetric tensors v (6, n).
+
+    With the eigenvalues λ₁ ≥ λ₂ ≥ λ₃ in closed form (`eigenvalues`): v itself where λ₃ ≥ 0,
+    0 where λ₁ ≤ 0; with one positive, λ₁ P₁; with two, v − λ₃ P₃; the projector
+    P_k = (v − λ_i 1)(v − λ_j 1) / ((λ_k − λ_i)(λ_k − λ_j)) (Sylvester). With mixed signs the
+    denominators are at least |λ_k| and λ₁ − λ₃ ≥ max |λ|, so the error is that of the
+    eigenvalues, machine ε |v|² / gap for a root of the characteristic cubic. Where two
+    eigenvalues come within NEAR_ROOT |v| of each other (√ε |v| accurate only: a uniaxial
+    stress) and the signs are not all one, LAPACK's eigenvectors."""
+    lam = eigenvalues(v)
+    tol = NEAR_ROOT * np.abs(lam).max(axis=0)
+    out = np.where(lam[2] >= 0, v, 0.0)
+    near = np.minimum(lam[0] - lam[1], lam[1] - lam[2]) <= tol
+    lapack = np.flatnonzero(near & (lam[0] > -tol) & (lam[2] < tol))
+    if lapack.size:
+        w, vec = np.linalg.eigh(tensors(v[:, lapack]))
+        out[:, lapack] = components(np.einsum("cak,ck,cbk->cab", vec, np.maximum(w, 0.0), vec))
+    for rows, k in ((np.flatnonzero(~near & (lam[0] > 0) & (lam[1] <= 0)), 0),
+                    (np.flatnonzero(~near & (lam[1] > 0) & (lam[2] < 0)), 2)):
+        if rows.size:
+            m, l = v[:, rows], lam[:, rows]
+            i, j = [x for x in range(3) if x != k]
+            product = square(m) - (l[i] + l[j]) * m    # (v − λ_i 1)(v − λ_j 1)
+            product[:3] += l[i] * l[j]
+            part = l[k] / ((l[k] - l[i]) * (l[k] - l[j])) * product
+            out[:, rows] = part if k == 0 else m - part
     return out
 
 
@@ -214,19 +266,19 @@ def fit_compressive_fracture_energy(strain, stress, length, specimen_young, youn
     return width * fc * fc / (2 * young) + fc * delta, delta, int(sp.size)
 
 
-def largest_eigenvalue(a):
-    """The largest eigenvalue of symmetric 3 × 3 matrices a (n, 3, 3), in closed form (the
+def eigenvalues(v):
+    """The eigenvalues λ₁ ≥ λ₂ ≥ λ₃ (3, n) of symmetric tensors v (6, n), in closed form (the
     trigonometric solution of the characteristic cubic: Smith, CACM 4, 1961, 168)."""
-    q = np.trace(a, axis1=1, axis2=2) / 3
-    b = a - q[:, None, None] * np.eye(3)
-    p = np.sqrt(np.einsum("cab,cab->c", b, b) / 6)
-    c = b / np.where(p > 0, p, 1.0)[:, None, None]
-    (c00, c01, c02), (c11, c12, c22) = (c[:, 0, k] for k in range(3)), (c[:, 1, 1], c[:, 1, 2],
-                                                                         c[:, 2, 2])
-    r = (c00 * (c11 * c22 - c12 * c12) - c01 * (c01 * c22 - c12 * c02)
-         + c02 * (c01 * c12 - c11 * c02)) / 2
+    q = trace(v) / 3
+    b = v.copy()
+    b[:3] -= q
+    p = np.sqrt(contract(b, b) / 6)
+    xx, yy, zz, yz, xz, xy = b / np.where(p > 0, p, 1.0)
+    r = (xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz)) / 2
     phi = np.arccos(np.clip(r, -1.0, 1.0)) / 3
-    return q + 2 * p * np.cos(phi)
+    largest = q + 2 * p * np.cos(phi)
+    smallest = q + 2 * p * np.cos(phi + 2 * np.pi / 3)
+    return np.stack([largest, 3 * q - largest - smallest, smallest])
 
 
 def band_width(gradients, direction):
