@@ -88,6 +88,8 @@ def test_mc2010_fracture_energy():
     (["--gf", "100", "--no-gf"], "error: --gf 100.0 and --no-gf exclude each other"),
     (["--shear-contrib", "-1"], "error: concrete parameter equivStrainShearContrib must be a "
                                 "non-negative number, got -1.0"),
+    (["--dt-safety", "1.5"], "error: loading dt_safety must be <= 1 (× the critical step), got 1.5"),
+    (["--shear-release=-1e-4"], "error: loading shear_release must be >= 0 s, got -0.0001"),
 ])
 def test_cli_refuses_bad_fracture_options(tmp_path, args, message):
     r = subprocess.run([sys.executable, "-m", "cli", "calibrate", *args,

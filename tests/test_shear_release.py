@@ -22,7 +22,7 @@ def pair(stretch, every=0):
                                                  relDuctility=30, density=4000))
     ids = O.bodies.append([utils.sphere((0, 0, 0), R, material=mat),
                            utils.sphere((2 * R, 0, 0), R, material=mat)])
-    cpm_engines(dt=1e-6, shear_release_every=every)
+    cpm_engines(dt=1e-6, shear_release=every * 1e-6)
     create_cohesive_links()
     for b in O.bodies:
         b.state.blockedDOFs = "xyzXYZ"

@@ -40,6 +40,7 @@ class Loading:
     stop_ratio: float = 0.7       # stop once |σ| falls below this × the peak after it
     max_strain: float = 5e-3      # or once |ε| exceeds this
     sample_strain: float = 1e-5   # compression strain between samples (same steps in tension)
+    shear_release: float = 0.0    # s: the slab's release of cracked links' shear (0: never)
 
     def __post_init__(self):
         for name in ("strain_rate", "tension_rate", "dt_safety", "max_strain", "sample_strain"):
@@ -47,6 +48,11 @@ class Loading:
                 raise ValueError(f"loading {name} must be > 0, got {getattr(self, name)!r}")
         if not 0 <= self.damping < 1:
             raise ValueError(f"loading damping must be in [0, 1), got {self.damping!r}")
+        if not self.dt_safety <= 1:
+            raise ValueError(f"loading dt_safety must be <= 1 (× the critical step), got "
+                             f"{self.dt_safety!r}")
+        if not self.shear_release >= 0:
+            raise ValueError(f"loading shear_release must be >= 0 s, got {self.shear_release!r}")
         if not 0 < self.stop_ratio < 1:
             raise ValueError(f"loading stop_ratio must be in (0, 1), got {self.stop_ratio!r}")
 
@@ -116,7 +122,7 @@ def uniaxial_scene(sample, params, mode, rate, loading=Loading(), material=None)
     gauge = x[pos].mean() - x[neg].mean()
     pair = x[pos[0]] - x[neg[0]]     # the strainer's own reference length
     sign = -1.0 if mode == "compression" else 1.0
-    _, newton = cpm_engines(dt_safety=loading.dt_safety)
+    _, newton = cpm_engines(dt_safety=loading.dt_safety, shear_release=loading.shear_release)
     newton.damping = loading.damping
     strainer = yade.wrapper.UniaxialStrainer(
         axis=0, asymmetry=0, posIds=ids[pos].tolist(), negIds=ids[neg].tolist(),

@@ -12,7 +12,7 @@ INTERACTION_RADIUS = 1.5
 # plastic part, so a broken link that keeps sliding and turning gets a spurious elastic strain.
 BROKEN_OMEGA = 0.99
 # Past this damage a link's shear stiffness is set to zero (cpm_engines with
-# shear_release_every): the public CPM law keeps a cracked link's full shear stiffness and, in
+# shear_release): the public CPM law keeps a cracked link's full shear stiffness and, in
 # compression, its full friction until deletion; that friction across cracks is what makes the
 # 40 m/s slab impact gain energy at 0.3 × PWave (docs/performance.md). The normal law is kept.
 SHEAR_RELEASE_OMEGA = 0.9
@@ -23,14 +23,15 @@ def reset_scene():
     yade.Omega().reset()
 
 
-def cpm_engines(dt=None, dt_safety=0.8, threshold=BROKEN_OMEGA, shear_release_every=0):
+def cpm_engines(dt=None, dt_safety=0.8, threshold=BROKEN_OMEGA, shear_release=0.0):
     """O.engines for explicit dynamics of CpmMat spheres: no damping, no gravity, fixed Δt.
 
     Δt = dt if given, else dt_safety × PWaveTimeStep(). `threshold` is
     Law2_ScGeom_CpmPhys_Cpm.omegaThreshold (links are deleted once damage exceeds it; 1 keeps
     them: see BROKEN_OMEGA). Only contacts of the first step become cohesive links (cohesiveThresholdIter=1):
-    an impactor never sticks. shear_release_every = k > 0: every k steps, release_cracked_shear()
-    (a PyRunner after the interaction loop). Returns (law, newton). Call
+    an impactor never sticks. shear_release = T > 0 (s): release_cracked_shear() every
+    round(T / Δt) steps (at least 1; a PyRunner after the interaction loop): a period in time,
+    so that the physics is the step's own. Returns (law, newton). Call
     create_cohesive_links() once the bodies are in."""
     yade = import_yade()
     from yade import utils, wrapper as w
@@ -46,12 +47,14 @@ def cpm_engines(dt=None, dt_safety=0.8, threshold=BROKEN_OMEGA, shear_release_ev
                           [w.Ip2_CpmMat_CpmMat_CpmPhys(cohesiveThresholdIter=1)], [law]),
         newton,
     ]
-    if shear_release_every:
-        O.engines = O.engines + [w.PyRunner(
-            iterPeriod=int(shear_release_every), label="shear_release",
-            command="import yade_side.scene; yade_side.scene.release_cracked_shear()")]
     O.dynDt = False
     O.dt = dt if dt is not None else dt_safety * utils.PWaveTimeStep()
+    if shear_release < 0:
+        raise ValueError(f"shear release period must be >= 0 s, got {shear_release!r}")
+    if shear_release:
+        O.engines = O.engines + [w.PyRunner(
+            iterPeriod=max(1, round(shear_release / O.dt)), label="shear_release",
+            command="import yade_side.scene; yade_side.scene.release_cracked_shear()")]
     return law, newton
 
 

@@ -116,8 +116,7 @@ class SlabScene:
         moving (it was made beyond the links' reach)."""
         from yade_side.bulk import BodySet
         from yade_side.scene import cpm_engines, create_cohesive_links
-        release = self.spec.shear_release      # a period in time: the physics is dt's own
-        cpm_engines(dt=dt, shear_release_every=release and max(1, round(release / dt)))
+        cpm_engines(dt=dt, shear_release=self.spec.shear_release)
         create_cohesive_links()
         if self.spec.elastic_outside:
             from yade_side.damage import keep_links_elastic

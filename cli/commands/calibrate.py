@@ -45,6 +45,12 @@ def configure(p):
                         "never break in shear)")
     p.add_argument("--strain-rate", type=float, default=0.05,
                    help="compression strain rate (1/s, default 0.05; tension: 1/10 of it)")
+    p.add_argument("--dt-safety", type=float, default=0.8,
+                   help="time step, × YADE's critical P-wave step (default 0.8)")
+    p.add_argument("--shear-release", type=float, default=0.0,
+                   help="period (s) at which links past ω = 0.9 lose their shear stiffness, "
+                        "as in the slab (default 0: never); with a shorter step it closes the "
+                        "separation test's energy balance (docs/calibration.md)")
     p.add_argument("--tol", type=float, default=0.02,
                    help="relative tolerance on E and fc of the fit (default 0.02)")
     p.add_argument("--gf-tol", type=float, default=0.05,
@@ -94,7 +100,8 @@ def run(args):
                                    equivStrainShearContrib=args.shear_contrib).items()
              if v is not None}
     params = replace(ConcreteParams(), density=args.density, **start)
-    loading = cal.Loading(strain_rate=args.strain_rate, tension_rate=0.1 * args.strain_rate)
+    loading = cal.Loading(strain_rate=args.strain_rate, tension_rate=0.1 * args.strain_rate,
+                          dt_safety=args.dt_safety, shear_release=args.shear_release)
     out = prepare_out(args.out, args.force)
     from yade_side import import_yade
     import_yade(args.threads)
