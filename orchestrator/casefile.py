@@ -114,8 +114,13 @@ def poisson_range(v):
     return None if -1 < v < 0.5 else "in (-1, 0.5)"
 
 
+# A step below this × the critical one buys nothing and costs steps without end (the slab's
+# default run would take 10⁸ of them); the relaxation rule reads the factor to 6 digits.
+MIN_SAFETY = 1e-3
+
+
 def safety_range(v):
-    return None if 0 < v <= 1 else "in (0, 1]"
+    return None if MIN_SAFETY <= v <= 1 else f"in [{MIN_SAFETY:g}, 1] (× the critical step)"
 
 
 @dataclass

@@ -63,7 +63,7 @@ every = "often"
         "variant, weighting, zone_axes, zone_hi, zone_lo)",
         "coupling.layers = 0: must be >= 1",
         "coupling.relaxation = -2.0: must be > 0",
-        "time.dt_safety = 1.5: must be in (0, 1]",
+        "time.dt_safety = 1.5: must be in [0.001, 1] (× the critical step)",
         "output.every = 'often': expected an integer",
     ]
     assert str(e.value).count("\n  - ") == len(problems)

@@ -62,6 +62,19 @@ def test_bad_damage_input_is_one_line(tmp_path, capsys):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.parametrize("args, words", [
+    (["--model", "coupled", "--dt-safety", "1e-300"],
+     "dt_safety must be in [0.001, 1] (× the critical step), got 1e-300"),
+    (["--model", "full", "--zone", "grow"], "--zone grow finds the DE zone of a coupled model"),
+    (["--model", "full", "--zone", "auto"], "--zone auto finds the DE zone of a coupled model"),
+])
+def test_bad_run_input_is_one_line(tmp_path, capsys, args, words):
+    assert main(["slab", *args, "--out", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert words in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "x").exists()
+
+
 def test_both_models_run_and_compare_with_finite_values(runs):
     comparison = json.loads((runs / "cmp" / "comparison.json").read_text())
     for s in comparison["sensors"].values():

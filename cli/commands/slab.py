@@ -40,6 +40,9 @@ def run(args):
             raise ValueError("give either --seed or --seeds, not both")
         cells = _zone_cells(args.zone_from) if args.zone_from else None
         spec, model = spec_from_args(slab.SlabSpec, args, zone_cells=cells), args.model
+        if model == "full" and spec.zone != "box":
+            raise ValueError(f"--zone {spec.zone} finds the DE zone of a coupled model: the full "
+                             f"model has none (run it with --model coupled)")
         folder.check_out(args.out, args.force)      # refuse before building, not after
     else:
         raise ValueError("give --model full|coupled and --out DIR for a new run, or --resume DIR")
