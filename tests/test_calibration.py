@@ -140,3 +140,21 @@ def test_calibration_reaches_the_slab_concrete():
     assert m["E"] == pytest.approx(31e9, rel=0.05)
     assert m["fc"] == pytest.approx(31e6, rel=0.05)
     assert len(result["iterations"]) <= 6
+
+
+def test_a_cycle_turns_at_its_targets_and_an_elastic_lattice_follows_its_modulus_both_ways():
+    """The simple cubic lattice of links along the axes (above: E = k/d exactly) driven out,
+    back past zero and out again (yade_side.cyclic): every leg ends at its target, and the
+    stress is E × strain at every sample, compression included; the lattice stays uniformly
+    strained as each leg starts on its own linear velocity field."""
+    from yade_side.cyclic import cyclic_test
+    R, d, E_c = 0.01, 2.2 * 0.01, 30e9
+    targets = (5e-5, -3e-5, 2e-5)
+    run = cyclic_test(lattice((10, 4, 4), R, d), None, targets, 1.0,
+                      Loading(sample_strain=2e-5), notch=0.0, material=elastic_material(E_c))
+    exact = E_c * math.pi * R**2 / d**2
+    e, s = run["strain"], run["stress"]
+    turns = [np.argmax(e), np.argmin(e)]
+    assert e[turns[0]] >= targets[0] and e[turns[1]] <= targets[1] and e[-1] >= targets[2]
+    assert turns[0] < turns[1] and np.all(np.diff(e[turns[1]:]) > 0)
+    assert np.abs(s - exact * e).max() <= 1e-9 * exact * np.abs(e).max()

@@ -38,3 +38,23 @@ def test_a_twin_without_a_record_is_refused_in_one_line(tmp_path, args, says):
     assert run.returncode == 2
     assert says in run.stderr and len(run.stderr.strip().splitlines()) == 1
     assert "Traceback" not in run.stderr
+
+
+def test_a_cycle_is_matched_by_the_strain_travelled_and_judged_leg_by_leg():
+    """A path out to 2e-4, back to −1e-4, out to 3e-4, σ = 20 GPa × ε: the FE's curve on other
+    samples of the same path scores nRMS 0 and the legs' extremes exactly; 0.5 MPa higher
+    everywhere, nRMS 0.5 MPa over the largest |σ|."""
+    from cases.slab.twin import judge_cycle, travel
+    targets = (2e-4, -1e-4, 3e-4)
+    knots = np.array([0.0, *targets])
+    path = lambda n: np.concatenate([np.linspace(knots[k], knots[k + 1], n)[k > 0:]
+                                     for k in range(3)])
+    e_s, e_f = path(11), path(101)
+    s_s, s_f = 2e10 * e_s, 2e10 * e_f
+    assert travel(e_s)[-1] == pytest.approx(2e-4 + 3e-4 + 4e-4, rel=1e-12)
+    f = judge_cycle(e_s, s_s, TwinRun("cyclic", e_f, s_f, 0.0, (2, 1, 1), 0.1), targets)
+    assert f["nrms_path"] == pytest.approx(0.0, abs=1e-12)
+    assert [leg["spheres"] for leg in f["legs"]] == pytest.approx([4e6, -2e6, 6e6], rel=1e-12)
+    assert [leg["fe"] for leg in f["legs"]] == pytest.approx([4e6, -2e6, 6e6], rel=1e-12)
+    f = judge_cycle(e_s, s_s, TwinRun("cyclic", e_f, s_f + 5e5, 0.0, (2, 1, 1), 0.1), targets)
+    assert f["nrms_path"] == pytest.approx(5e5 / 6e6, rel=1e-9)

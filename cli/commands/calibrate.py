@@ -58,10 +58,10 @@ def configure(p):
     p.add_argument("--max-iter", type=int, default=6, help="fit iterations (default 6)")
     p.add_argument("--seed", type=int, default=1, help="packing seed")
     p.add_argument("--fe-twin", action="store_true",
-                   help="no spheres: run the slab's FE damage law of --scale on the specimens "
-                        "of the scale's calibration record (its --concrete set; --gf gives the "
-                        "FE's Gf where the record has none) and compare the curves "
-                        "(twin.json, twin.png)")
+                   help="run the slab's FE damage law of --scale on the specimens of the "
+                        "scale's calibration record (its --concrete set; --gf gives the FE's Gf "
+                        "where the record has none) and on a tension-compression cycle that "
+                        "the spheres run too, and compare the curves (twin.json, twin.png)")
     p.add_argument("--concrete", choices=CONCRETES, default="plain",
                    help="with --fe-twin: the scale's CPM set whose record is compared "
                         "(default plain)")
@@ -148,23 +148,35 @@ def run_twin(args):
                     fracture_energy=args.gf)
     record = json.loads(path.read_text())
     out = prepare_out(args.out, args.force)
-    result = twin.twin(spec, record)
+    from yade_side import import_yade
+    import_yade(args.threads)
+    cycle = twin.spheres_cycle(record)
+    result = twin.twin(spec, record, cycle)
     law = spec.damage_law()
     table = {mode: dict(figures, cells=list(fe.cells), h=fe.h)
              for mode, (fe, figures) in result.items()}
+    spheres = {k: cycle[k].tolist() if hasattr(cycle[k], "tolist") else cycle[k]
+               for k in ("strain", "stress", "targets", "steps", "dt", "spheres", "seconds")}
     write_json(out / "twin.json", dict(scale=args.scale, concrete=args.concrete,
-                                       record=path.name, law=law, specimens=table))
+                                       record=path.name, law=law, specimens=table,
+                                       spheres_cycle=spheres))
     title = (f"{args.scale} scale, {args.concrete} set: FE E {law['young'] / 1e9:.1f} GPa, "
              f"ft {law['tensile_strength'] / 1e6:.2f} MPa, fc "
              f"{law['compressive_strength'] / 1e6:.1f} MPa, Gf {law['fracture_energy']:.0f}, "
              f"Gc {law['compressive_fracture_energy']:.0f} J/m²")
-    twin.plot(out / "twin.png", record, result, title)
+    twin.plot(out / "twin.png", record, result, title, cycle)
     print(title)
     print("specimen     cells  nRMS to peak  peak spheres / FE (MPa)  work spheres / FE (J)")
-    for mode, f in table.items():
+    for mode in ("compression", "tension"):
+        f = table[mode]
         print(f"{mode:<12} {'x'.join(map(str, f['cells'])):<6} {f['nrms_to_peak']:>12.3f}  "
               f"{f['peak_spheres'] / 1e6:>10.2f} / {f['peak_fe'] / 1e6:<10.2f}  "
               f"{f['work_spheres_J']:>8.1f} / {f['work_fe_J']:<8.1f}")
+    f = table["cyclic"]
+    print(f"cycle (spheres {cycle['seconds']:.0f} s): nRMS over the path {f['nrms_path']:.3f}; "
+          + "; ".join(f"to {leg['target']:.2e}: {leg['spheres'] / 1e6:.2f} / "
+                      f"{leg['fe'] / 1e6:.2f} MPa" for leg in f["legs"])
+          + " (spheres / FE: each leg's extreme stress)")
     print(f"results in {out}")
     return 0
 
