@@ -58,3 +58,20 @@ def test_a_cycle_is_matched_by_the_strain_travelled_and_judged_leg_by_leg():
     assert [leg["fe"] for leg in f["legs"]] == pytest.approx([4e6, -2e6, 6e6], rel=1e-12)
     f = judge_cycle(e_s, s_s, TwinRun("cyclic", e_f, s_f + 5e5, 0.0, (2, 1, 1), 0.1), targets)
     assert f["nrms_path"] == pytest.approx(5e5 / 6e6, rel=1e-9)
+
+
+def test_the_fe_bending_strip_starts_on_its_static_shape_and_does_not_ring():
+    """Undamaged (strengths far above the stresses), the explicit FE strip whose nodes start on
+    the elastic static deflection shape at the patch's speed stays on it: no acceleration, so
+    the force is the static stiffness × the travel at every sample (to round-off); started at
+    rest it would ring at its first mode."""
+    from cases.slab import SlabSpec
+    from cases.slab.bending import bending_to_failure_fe
+    from fenicsx_side.damage_law import ConcreteDamage
+    spec = SlabSpec(scale="small", fe_material="damage")
+    law = ConcreteDamage(**dict(spec.damage_law(), tensile_strength=1e12,
+                                compressive_strength=1e13))
+    travel, force, dissipated, cells = bending_to_failure_fe(spec, law, 0.02, 2e-4, samples=20)
+    stiffness = force[1:] / travel[1:]
+    assert np.abs(stiffness / stiffness[0] - 1).max() < 1e-9
+    assert dissipated == 0.0 and travel[-1] >= 2e-4

@@ -8,6 +8,11 @@ deflection settles. The same strip in FE on the scale's grid (same supports, the
 forces through the coupling operator k) gives the deflection of a 31 GPa continuum; the FE is
 linear, so E_eff = 31 GPa × w_FE / w_DE is the FE modulus that bends like the spheres
 (cases/slab/scales.py SCALES, docs/slab.md).
+
+The same strip is also loaded to failure, in spheres and in the FE damage law
+(`bending_to_failure_de`, `bending_to_failure_fe`: the FE twin, cases/slab/twin.py): the patch
+is pushed down at a constant speed (its spheres' z, or its top nodes' z, driven), links and
+cells damage, and the force on the patch is recorded against its travel.
 """
 import argparse
 import json
@@ -79,20 +84,106 @@ def fe_deflection(spec, load):
 def static_point_deflection(fe, points, load, gauges):
     """Mean z deflection at `gauges` of the FE model `fe`, solved statically, under a force
     `load` (N, along −z) shared equally by `points` (through the coupling operator k)."""
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import spsolve
     k, _ = fe.point_operators(points)
     f = np.zeros((len(points), 3))
     f[:, 2] = -load / len(points)
-    free = np.flatnonzero(~fe.fixed)
-    K = fe.K[free][:, free]
-    # the supports leave the in-plane rigid motions free: a spring 1e-9 × the mean stiffness
-    # removes them without touching the bending deflection
-    K = (K + 1e-9 * K.diagonal().mean() * sp.identity(len(free))).tocsc()
     u = np.zeros(fe.ndof)
-    u[free] = spsolve(K, (k.T @ f.ravel())[free])
+    free = np.flatnonzero(~fe.fixed)
+    u[free] = _static_solve(fe.K, free, (k.T @ f.ravel())[free])
     g, _ = fe.point_operators(gauges)
     return float((g @ u).reshape(-1, 3)[:, 2].mean())
+
+
+def bending_to_failure_de(spec, speed, end, samples=400, loading=None):
+    """The DE strip (the scale's CPM set, calibration's step and damping) with its patch pushed
+    down at `speed` (m/s) to a travel `end` (m). Returns (travel, force) arrays (m, N; the
+    force the strip puts back on the patch, positive upwards), the sphere count and seconds."""
+    import time
+    from yade_side import import_yade
+    from yade_side.calibration import Loading
+    from yade_side.material import cpm_material
+    from yade_side.packing import add_spheres
+    from yade_side.scene import block_dofs, cpm_engines, create_cohesive_links, reset_scene
+    loading = Loading() if loading is None else loading
+    O = import_yade().Omega()
+    packs = slab.make_packings(spec)
+    c, r = _strip(packs.slab_centres, packs.slab_radii)
+    reset_scene()
+    ids = add_spheres(c, r, cpm_material(slab.concrete(spec), packs.slab_fraction))
+    _, newton = cpm_engines(dt_safety=loading.dt_safety, shear_release=loading.shear_release)
+    create_cohesive_links()
+    newton.damping = loading.damping
+    block_dofs(ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)], "z")
+    patch = [int(i) for i in ids[_top(c, r)]]
+    block_dofs(patch, "z")
+    for i in patch:
+        O.bodies[i].state.vel = (0, 0, -speed)
+    steps = int(np.ceil(end / speed / O.dt))
+    every = max(1, steps // samples)
+    travel, force, t0 = [0.0], [0.0], time.perf_counter()
+    for k in range(1, steps + 1):
+        O.step()
+        if k % every == 0 or k == steps:
+            travel.append(speed * k * O.dt)
+            force.append(sum(O.forces.f(i)[2] for i in patch))
+            if not np.isfinite(force[-1]):
+                raise FloatingPointError(f"bending strip: force is {force[-1]} at step {k}")
+    return np.array(travel), np.array(force), len(ids), time.perf_counter() - t0
+
+
+def bending_to_failure_fe(spec, law, speed, end, samples=400):
+    """The FE strip (the FE damage law `law` on the scale's grid, the supports of
+    `fe_deflection`) with the top nodes of the patch pushed down at `speed` (m/s) to a travel
+    `end` (m), explicit steps at half the critical one. Returns (travel, force, the energy the
+    damage dissipated, the cells along x, y, z): the force the strip puts back on the patch,
+    positive upwards."""
+    from fenicsx_side.damaged import DamageModel
+    from fenicsx_side.mesh import box_mesh
+    from fenicsx_side.model import face
+    grid = slab.slab_grid(spec)
+    y0 = 0.5 * (slab.SLAB[1] - STRIP)
+    n = [grid.n[0], max(1, round(STRIP / grid.h)), grid.n[2]]
+    top = lambda x: (np.abs(x[0] - 0.5 * slab.SLAB[0]) <= 0.5 * PATCH + 1e-8) & (
+        np.abs(x[2] - slab.SLAB[2]) <= 1e-8)
+    m = DamageModel(box_mesh((0, y0, 0), (slab.SLAB[0], y0 + STRIP, slab.SLAB[2]), n), law,
+                    spec.density, [(face(0, 0.0), (2,)), (face(0, slab.SLAB[0]), (2,)),
+                                   (top, (2,))])
+    z = np.arange(m.ndof) % 3 == 2
+    driven = np.flatnonzero(m.fixed & z & np.repeat(top(m.nodes.T), 3))
+    dt = 0.5 * m.critical_dt()
+    steps = int(np.ceil(end / speed / dt))
+    every = max(1, steps // samples)
+    # every node starts on the elastic strip's static deflection shape, scaled to the patch's
+    # speed: no ringing from the start (the FE has no damping)
+    shape = np.zeros(m.ndof)
+    shape[driven] = -1.0
+    free = np.flatnonzero(~m.fixed)
+    shape[free] = _static_solve(m.K, free, -(m.K[:, driven] @ shape[driven])[free])
+    m.u = np.where(m.fixed, 0.0, speed * dt * shape)   # one step ahead, as the patch:
+    m.v = np.where(m.fixed, 0.0, speed * shape)
+    m.correct(driven, np.full(driven.size, -speed * dt), dt)
+    travel, force = [0.0], [0.0]
+    for k in range(1, steps + 1):
+        m.predict(dt)
+        if k % every == 0 or k == steps:
+            travel.append(-m.u[driven].mean())
+            force.append(-m.internal_force()[driven].sum())
+    return np.array(travel), np.array(force), m.dissipated, tuple(n)
+
+
+def _static_solve(K, free, rhs, refinements=3):
+    """K[free, free] u = rhs, rhs free of the in-plane rigid motions the supports leave free
+    (K's own null space there). Solved with a spring 1e-9 × the mean stiffness on every dof,
+    which removes them, then refined on the residual of K itself: each pass takes the spring's
+    error down by 1e-9 × the mean stiffness over the strip's softest bending stiffness."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import splu
+    K = K[free][:, free].tocsc()
+    lu = splu((K + 1e-9 * K.diagonal().mean() * sp.identity(len(free))).tocsc())
+    u = lu.solve(rhs)
+    for _ in range(refinements):
+        u += lu.solve(rhs - K @ u)
+    return u
 
 
 def _strip(c, r):

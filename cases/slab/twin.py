@@ -11,6 +11,9 @@ scale's calibration record (cases/slab/calibrations).
   packing and CPM set): the notched specimen pulled to 3 × the tension peak's strain (a
   crack), pushed to half fc's elastic strain in compression (the crack shut), pulled to
   6 × the peak strain; spheres and FE at the compression test's rate.
+- Bending (not in the record either: cases/slab/bending.py): the slab's 0.3 m strip over its
+  span, its mid-span patch pushed down at 20 mm/s to 6 mm, in the slab's packing and CPM set
+  and in the FE law on the slab's grid; force against the patch's travel.
 - Loading: the x = 0 face held along x, the x = L face driven at the spheres' strain rate,
   every node starting on the uniform strain rate's velocity field (no shock); explicit steps
   at half the critical one. Stress = end force / nominal section, strain = end displacement /
@@ -19,7 +22,8 @@ scale's calibration record (cases/slab/calibrations).
   spheres' at the spheres' samples, over the spheres' peak), the peaks, and the work ∫σ dε ×
   volume up to the spheres' last sample (for a test to separation, the energy to failure).
   The cycle: the nRMS over its whole path (matched by the strain travelled, over the
-  spheres' largest |σ|) and each leg's extreme stress.
+  spheres' largest |σ|) and each leg's extreme stress. Bending: as tension, with force for
+  stress and travel for strain (work in J).
 """
 from dataclasses import dataclass
 
@@ -29,6 +33,8 @@ NOTCH = 0.1          # the separation test's notch on each cut side, × the widt
 RATE_SPEEDUP = 10.0  # FE loading rate over the spheres' (quasi-static: its transit time is
                      # ~0.2 ms against ≥ 20 ms of loading)
 CYCLE = (3.0, -0.5, 6.0)  # the cycle's targets: × the tension peak's strain, × fc / E, × it
+BEND_SPEED = 0.02    # m/s, the bending patch's (12 periods of the strip's first mode to 4 mm)
+BEND_END = 6e-3      # m, its travel: the small strip's force falls to ~40 % of its peak
 
 
 @dataclass
@@ -95,7 +101,7 @@ def run_specimen(law, rho, size, h_plane, nz, mode, path, rate, samples=400):
 
 def judge(spheres_strain, spheres_stress, fe, volume):
     """The twin's figures against the spheres' curve (signed as recorded)."""
-    sign = 1.0 if fe.mode == "tension" else -1.0
+    sign = -1.0 if fe.mode == "compression" else 1.0
     e_s, s_s = sign * np.asarray(spheres_strain), sign * np.asarray(spheres_stress)
     e_f, s_f = sign * fe.strain, sign * fe.stress
     peak = int(np.argmax(s_s))
@@ -161,10 +167,10 @@ def spheres_cycle(record, seed=1):
                        loading.strain_rate, loading)
 
 
-def twin(spec, record, cycle=None, rate_speedup=RATE_SPEEDUP):
+def twin(spec, record, cycle=None, bending=None, rate_speedup=RATE_SPEEDUP):
     """The record's specimens with the slab's FE law (spec: a SlabSpec with fe_material
-    'damage'), and the cycle if the spheres' one is given (spheres_cycle). Returns {mode:
-    (TwinRun, figures)}."""
+    'damage'), the cycle if the spheres' one is given (spheres_cycle) and the bending strip if
+    the spheres' (travel, force) is. Returns {mode: (TwinRun, figures)}."""
     from cases.slab.geometry import slab_grid
     from cases.slab.scales import SLAB
     from fenicsx_side.damage_law import ConcreteDamage
@@ -186,19 +192,37 @@ def twin(spec, record, cycle=None, rate_speedup=RATE_SPEEDUP):
         fe = run("cyclic", cycle["targets"], loading["strain_rate"])
         out["cyclic"] = (fe, judge_cycle(cycle["strain"], cycle["stress"], fe,
                                          cycle["targets"]))
+    if bending is not None:
+        from cases.slab.bending import bending_to_failure_fe
+        travel, force = bending
+        t, f, dissipated, cells = bending_to_failure_fe(spec, law, BEND_SPEED, travel[-1])
+        fe = TwinRun("bending", t, f, dissipated, cells, grid.h)
+        out["bending"] = (fe, judge(travel, force, fe, 1.0))
     return out
 
 
-def plot(path, record, result, title, cycle=None):
-    """The specimens' curves, spheres and FE overlaid (the cycle's if `cycle` is given)."""
+def plot(path, record, result, title, cycle=None, bending=None):
+    """The specimens' curves, spheres and FE overlaid (the cycle's and the bending strip's if
+    given)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from common.files import save_figure
-    modes = ("compression", "tension") + (("cyclic",) if cycle is not None else ())
+    modes = (("compression", "tension") + (("cyclic",) if cycle is not None else ())
+             + (("bending",) if bending is not None else ()))
     fig, axes = plt.subplots(1, len(modes), figsize=(5 * len(modes), 4.2))
     for ax, mode in zip(axes, modes):
         fe, fig_ = result[mode]
+        if mode == "bending":
+            ax.plot(1e3 * bending[0], 1e-3 * bending[1], "k", label="spheres (CPM)")
+            ax.plot(1e3 * fe.strain, 1e-3 * fe.stress, "C3",
+                    label=f"FE, {fe.cells[0]}×{fe.cells[1]}×{fe.cells[2]} cells")
+            ax.set_xlabel("patch travel (mm)")
+            ax.set_ylabel("force (kN)")
+            ax.set_title(f"bending strip: nRMS to peak {fig_['nrms_to_peak']:.2f}, work ratio "
+                         f"{fig_['work_ratio']:.2f}", fontsize=9)
+            ax.legend(fontsize=8)
+            continue
         curve = cycle if mode == "cyclic" else record["curves"][mode]
         sign = -1.0 if mode == "compression" else 1.0
         ax.plot(sign * 1e3 * np.asarray(curve["strain"]), sign * 1e-6 * np.asarray(

@@ -60,8 +60,12 @@ def configure(p):
     p.add_argument("--fe-twin", action="store_true",
                    help="run the slab's FE damage law of --scale on the specimens of the "
                         "scale's calibration record (its --concrete set; --gf gives the FE's Gf "
-                        "where the record has none) and on a tension-compression cycle that "
-                        "the spheres run too, and compare the curves (twin.json, twin.png)")
+                        "where the record has none) and on a tension-compression cycle and a "
+                        "bending strip to failure that the spheres run too, and compare the "
+                        "curves (twin.json, twin.png)")
+    p.add_argument("--no-bending", action="store_true",
+                   help="with --fe-twin: leave out the bending strip (its spheres take ~3 min "
+                        "at small scale, over an hour at paper scale)")
     p.add_argument("--concrete", choices=CONCRETES, default="plain",
                    help="with --fe-twin: the scale's CPM set whose record is compared "
                         "(default plain)")
@@ -151,20 +155,28 @@ def run_twin(args):
     from yade_side import import_yade
     import_yade(args.threads)
     cycle = twin.spheres_cycle(record)
-    result = twin.twin(spec, record, cycle)
+    bending = None
+    if not args.no_bending:
+        from cases.slab.bending import bending_to_failure_de
+        travel, force, spheres, seconds = bending_to_failure_de(spec, twin.BEND_SPEED,
+                                                                twin.BEND_END)
+        bending = (travel, force)
+        print(f"bending strip: {spheres} spheres, {seconds:.0f} s")
+    result = twin.twin(spec, record, cycle, bending)
     law = spec.damage_law()
     table = {mode: dict(figures, cells=list(fe.cells), h=fe.h)
              for mode, (fe, figures) in result.items()}
     spheres = {k: cycle[k].tolist() if hasattr(cycle[k], "tolist") else cycle[k]
                for k in ("strain", "stress", "targets", "steps", "dt", "spheres", "seconds")}
-    write_json(out / "twin.json", dict(scale=args.scale, concrete=args.concrete,
-                                       record=path.name, law=law, specimens=table,
-                                       spheres_cycle=spheres))
+    write_json(out / "twin.json", dict(
+        scale=args.scale, concrete=args.concrete, record=path.name, law=law, specimens=table,
+        spheres_cycle=spheres, spheres_bending=None if bending is None else dict(
+            travel_m=bending[0].tolist(), force_N=bending[1].tolist())))
     title = (f"{args.scale} scale, {args.concrete} set: FE E {law['young'] / 1e9:.1f} GPa, "
              f"ft {law['tensile_strength'] / 1e6:.2f} MPa, fc "
              f"{law['compressive_strength'] / 1e6:.1f} MPa, Gf {law['fracture_energy']:.0f}, "
              f"Gc {law['compressive_fracture_energy']:.0f} J/m²")
-    twin.plot(out / "twin.png", record, result, title, cycle)
+    twin.plot(out / "twin.png", record, result, title, cycle, bending)
     print(title)
     print("specimen     cells  nRMS to peak  peak spheres / FE (MPa)  work spheres / FE (J)")
     for mode in ("compression", "tension"):
@@ -177,6 +189,13 @@ def run_twin(args):
           + "; ".join(f"to {leg['target']:.2e}: {leg['spheres'] / 1e6:.2f} / "
                       f"{leg['fe'] / 1e6:.2f} MPa" for leg in f["legs"])
           + " (spheres / FE: each leg's extreme stress)")
+    if bending is not None:
+        f = table["bending"]
+        print(f"bending strip, {'x'.join(map(str, f['cells']))} cells: nRMS to peak "
+              f"{f['nrms_to_peak']:.3f}, peak force spheres / FE {f['peak_spheres'] / 1e3:.1f} / "
+              f"{f['peak_fe'] / 1e3:.1f} kN at {1e3 * f['strain_at_peak_spheres']:.2f} / "
+              f"{1e3 * f['strain_at_peak_fe']:.2f} mm, work {f['work_spheres_J']:.0f} / "
+              f"{f['work_fe_J']:.0f} J")
     print(f"results in {out}")
     return 0
 
