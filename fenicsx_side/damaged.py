@@ -6,14 +6,19 @@ closes in compression).
 Cell stress on the mean strain ε̄_c: σ_c = σ̄_c − D_t σ̄⁺_c − D_c σ̄⁻_c, σ̄ = C : ε̄. The internal
 force is f = K u − Sᵀ(V (D_t σ̄⁺ + D_c σ̄⁻)): PETSc's elastic mat-vec, one sparse mat-vec for
 the cells' mean strains S u and one with Sᵀ, and numpy arrays of the six strain components
-over the cells in between (fenicsx_side.damage_law's component-major layout).
-A cell's stiffness is its one-point part V B̄ᵀ C B̄ plus what the quadrature adds
-(hourglass-like modes, positive semi-definite); damage takes from the first, so a cracked cell
-opens freely and the rest stays stable, as explicit codes keep their hourglass control.
+over the cells in between (fenicsx_side.damage_law's component-major layout), and the damaged
+cells' higher-order part.
+A cell's stiffness is its one-point part V B̄ᵀ C B̄ plus what the quadrature adds, K_c − V B̄ᵀ C B̄
+(positive semi-definite: the strain's variation inside the cell, the cell's own bending). The
+law's split takes from the first; the cell's damage D = max(D_t, D_c) scales the second, so
+that a cracked cell cannot go on carrying a bending moment through it (kept whole, it held
+18 % of the small-scale slab strip's bending energy with every cell at D = 1). Its force
+−D_c K_rest,c u_c runs over the damaged cells only, their 24 × 24 matrices computed when they
+first damage.
 Uniform strains, and with them the law's curves in a cell, are exact. With a weight α (the
 consistent bridging weighting) the means are α's, as in K, in the cells it touches. The strain energy is ½ u·f; the
-energy dissipated is Σ_c V_c (½ σ̄⁺:ε̄ ΔD_t + ½ σ̄⁻:ε̄ ΔD_c) (energy release rates times the
-increments).
+energy dissipated is Σ_c V_c (½ σ̄⁺:ε̄ ΔD_t + ½ σ̄⁻:ε̄ ΔD_c) + ½ u_cᵀ K_rest,c u_c ΔD (energy release
+rates times the increments).
 
 Serial only: a cell's strain needs its ghost nodes, which this model does not exchange.
 """
@@ -52,6 +57,9 @@ class DamageModel(ElasticModel):
         self.dissipated = 0.0
         self._force = np.zeros(self.ndof)
         self._lost = np.zeros((6, n))
+        self._cell_dofs = (3 * self.cell_nodes[:, :, None] + np.arange(3)).reshape(n, -1)
+        self._rest = np.zeros((0,) + 2 * self._cell_dofs.shape[1:])  # of the damaged cells
+        self._rest_row = np.full(n, -1)          # each cell's row there (-1: none yet)
 
     def _cells_geometry(self, degree, weight):
         """Per cell: volume, centre, mean strain operators (plain, for the strain the law
@@ -75,12 +83,36 @@ class DamageModel(ElasticModel):
             self._weighted_cells = np.flatnonzero((alpha_nodes[self.cell_nodes] != 1).any(1))
         self._weighted_volume = dv_weighted.sum(axis=1)
         weighted = mean(dv_weighted)
+        self._quadrature = (grad, dv_weighted, weighted)   # for the cells' higher-order part
         self._weighted_strain = self._strain_operator(weighted, self._weighted_cells)
         # f = Sᵀ (V σ) with S the α-weighted strains: the shear components count twice in σ : ε
         twice = np.repeat([1.0, 1.0, 1.0, 2.0, 2.0, 2.0], n_cells)
         self._force_operator = (self._strain_operator(weighted).T @ sp.diags(twice)).tocsr()
         centre = np.tile(self._reference_centre(), (n_cells, 1))
         self._centre_grad = self._basis_at(np.arange(n_cells), centre)[1]  # (n, nv, 3)
+
+    def _higher_order(self, cells):
+        """K_c − V B̄ᵀ C B̄ of `cells` (m, 3 nv, 3 nv), dofs 3 i + a: the cells' α-weighted
+        stiffness over the quadrature points less its one-point part (fenicsx_side.model's
+        form: K_ia,jb = ∫ λ ∂_a N_i ∂_b N_j + μ (∂_b N_i ∂_a N_j + δ_ab ∇N_i · ∇N_j))."""
+        grad, dv, mean_grad = (a[cells] for a in self._quadrature)
+        E, nu = self.law.young, self.law.poisson
+        lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+
+        def stiffness(g, w):                     # g (m, q, nv, 3), w (m, q)
+            k = (lam * np.einsum("mq,mqia,mqjb->miajb", w, g, g)
+                 + mu * np.einsum("mq,mqib,mqja->miajb", w, g, g)
+                 + mu * np.einsum("mq,mqik,mqjk,ab->miajb", w, g, g, np.eye(3)))
+            return k.reshape(len(g), 3 * g.shape[2], 3 * g.shape[2])
+        return stiffness(grad, dv) - stiffness(mean_grad[:, None], dv.sum(axis=1)[:, None])
+
+    def _rest_of(self, cells):
+        """The higher-order matrices of `cells` (damaged), computed at their first damage."""
+        new = cells[self._rest_row[cells] < 0]
+        if new.size:
+            self._rest_row[new] = len(self._rest) + np.arange(new.size)
+            self._rest = np.concatenate([self._rest, self._higher_order(new)])
+        return self._rest[self._rest_row[cells]]
 
     def _strain_operator(self, mean_grad, cells=None):
         """Sparse (6 m, ndof): u ↦ the mean strains of `cells` (default all, m of them),
@@ -129,8 +161,11 @@ class DamageModel(ElasticModel):
         new_t = law.damage(self.kappa[grow], self.eps_f[grow])
         new_c = law.damage(self.kappa_c[grow], self.eps_fc[grow])
         step_t, step_c = new_t - self.damage_t[grow], new_c - self.damage_c[grow]
+        step = np.maximum(new_t, new_c) - self.damage[grow]
         self.damage_t[grow], self.damage_c[grow] = new_t, new_c
         self.damage[grow] = np.maximum(new_t, new_c)
+        u = self._u[self._cell_dofs[grow]]
+        self.dissipated += 0.5 * float(step @ np.einsum("ci,cij,cj->c", u, self._rest_of(grow), u))
         split = self.split(eps)
         hit, w, sig, pos = split
         at = np.searchsorted(hit, grow)       # grow ⊂ hit: a growing damage is > 0
@@ -165,6 +200,10 @@ class DamageModel(ElasticModel):
             self._lost[:, hit] = self._weighted_volume[hit] * (
                 self.damage_t[hit] * pos + self.damage_c[hit] * (sig - pos))
             self._force -= self._force_operator @ self._lost.ravel()
+            dofs = self._cell_dofs[hit]
+            rest = self.damage[hit, None] * np.einsum("cij,cj->ci", self._rest_of(hit),
+                                                       self._u[dofs])
+            self._force -= np.bincount(dofs.ravel(), rest.ravel(), minlength=self.ndof)
         return self._force
 
     def predict(self, dt):

@@ -191,10 +191,10 @@ def stiffness_of(m):
 
 @pytest.mark.parametrize("cell", [mesh.CellType.hexahedron, mesh.CellType.tetrahedron])
 def test_damage_takes_a_cells_stiffness_to_uniform_strain_and_leaves_it_stable(cell):
-    """Undamaged: dolfinx's K. Damage D in tension and compression in every cell: a linear
-    field's force is (1 − D) K u (D = 1: none); any D in [0, 1] per cell: symmetric and
-    positive semi-definite (what damage leaves is the quadrature's part beyond the one-point
-    stiffness), with a weight α too."""
+    """Undamaged: dolfinx's K. Damage D in tension and compression in every cell: the stiffness
+    is (1 − D) K, every mode of the cells included (D = 1: none, not even a cell's own
+    bending); any D in [0, 1] per cell: symmetric and positive semi-definite, with a weight α
+    too."""
     msh = box([0, 0, 0], [0.3, 0.2, 0.1], [3, 2, 2], cell)
     weight = lambda x: 0.2 + x[:, 0] + 2 * x[:, 1] ** 2
     for w in (None, weight):
@@ -207,6 +207,7 @@ def test_damage_takes_a_cells_stiffness_to_uniform_strain_and_leaves_it_stable(c
             set_linear(m, grad)
             f = m.internal_force()
             assert np.abs(f - (1 - d) * (K @ m.u)).max() <= 1e-9 * np.abs(K @ m.u).max()
+            assert np.abs(stiffness_of(m) - (1 - d) * K).max() <= 1e-12 * np.abs(K).max()
         m.damage[:] = np.random.default_rng(4).uniform(size=len(m.cell_nodes))
         m.damage_t[:] = m.damage_c[:] = m.damage
         KD = stiffness_of(m)
