@@ -52,5 +52,5 @@ def test_no_passing_rung_takes_the_last_one():
 def test_auto_is_a_case_file_value_and_other_words_are_not():
     with pytest.raises(ValueError, match='a number or "auto"'):
         SlabSpec(dt_safety="fast")
-    with pytest.raises(ValueError, match=r"in \(0, 1\]"):
+    with pytest.raises(ValueError, match=r"in \[0.001, 1\] \(× the critical step\)"):
         SlabSpec(dt_safety=1.5)
