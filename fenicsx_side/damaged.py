@@ -60,6 +60,7 @@ class DamageModel(ElasticModel):
         self._cell_dofs = (3 * self.cell_nodes[:, :, None] + np.arange(3)).reshape(n, -1)
         self._rest = np.zeros((0,) + 2 * self._cell_dofs.shape[1:])  # of the damaged cells
         self._rest_row = np.full(n, -1)          # each cell's row there (-1: none yet)
+        self._rest_cells, self._rest_count = np.zeros(0, int), 0
 
     def _cells_geometry(self, degree, weight):
         """Per cell: volume, centre, mean strain operators (plain, for the strain the law
@@ -93,26 +94,44 @@ class DamageModel(ElasticModel):
 
     def _higher_order(self, cells):
         """K_c − V B̄ᵀ C B̄ of `cells` (m, 3 nv, 3 nv), dofs 3 i + a: the cells' α-weighted
-        stiffness over the quadrature points less its one-point part (fenicsx_side.model's
-        form: K_ia,jb = ∫ λ ∂_a N_i ∂_b N_j + μ (∂_b N_i ∂_a N_j + δ_ab ∇N_i · ∇N_j))."""
+        stiffness over the quadrature points, Σ_q w_q B_qᵀ C B_q (Voigt, engineering shears),
+        less its one-point part."""
         grad, dv, mean_grad = (a[cells] for a in self._quadrature)
         E, nu = self.law.young, self.law.poisson
         lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+        C = np.diag([lam + 2 * mu] * 3 + [mu] * 3)
+        C[:3, :3] += lam * (1 - np.eye(3))
 
         def stiffness(g, w):                     # g (m, q, nv, 3), w (m, q)
-            k = (lam * np.einsum("mq,mqia,mqjb->miajb", w, g, g)
-                 + mu * np.einsum("mq,mqib,mqja->miajb", w, g, g)
-                 + mu * np.einsum("mq,mqik,mqjk,ab->miajb", w, g, g, np.eye(3)))
-            return k.reshape(len(g), 3 * g.shape[2], 3 * g.shape[2])
+            m, q, nv, _ = g.shape
+            B = np.zeros((m, q, 6, nv, 3))
+            for k in range(3):
+                B[:, :, k, :, k] = g[:, :, :, k]
+            for k, (a, b) in zip(range(3, 6), ((1, 2), (0, 2), (0, 1))):
+                B[:, :, k, :, a], B[:, :, k, :, b] = g[:, :, :, b], g[:, :, :, a]
+            B = B.reshape(m, q, 6, 3 * nv)
+            CB = (C @ B).reshape(m, 6 * q, 3 * nv)
+            Bw = (B * w[:, :, None, None]).reshape(m, 6 * q, 3 * nv)
+            return Bw.transpose(0, 2, 1) @ CB
         return stiffness(grad, dv) - stiffness(mean_grad[:, None], dv.sum(axis=1)[:, None])
 
-    def _rest_of(self, cells):
-        """The higher-order matrices of `cells` (damaged), computed at their first damage."""
+    def _store_rest(self, cells):
+        """Store the higher-order matrices of the damaged `cells` not stored yet, in the order
+        they first damage (damage never falls, so the store's cells are the damaged ones);
+        the store doubles when full. Returns their rows for `cells`."""
         new = cells[self._rest_row[cells] < 0]
         if new.size:
-            self._rest_row[new] = len(self._rest) + np.arange(new.size)
-            self._rest = np.concatenate([self._rest, self._higher_order(new)])
-        return self._rest[self._rest_row[cells]]
+            start = self._rest_count
+            if start + new.size > len(self._rest):
+                size = max(2 * len(self._rest), start + new.size)
+                grown, cells_grown = np.empty((size,) + self._rest.shape[1:]), np.empty(size, int)
+                grown[:start], cells_grown[:start] = self._rest[:start], self._rest_cells[:start]
+                self._rest, self._rest_cells = grown, cells_grown
+            self._rest[start:start + new.size] = self._higher_order(new)
+            self._rest_cells[start:start + new.size] = new
+            self._rest_row[new] = start + np.arange(new.size)
+            self._rest_count = start + new.size
+        return self._rest_row[cells]
 
     def _strain_operator(self, mean_grad, cells=None):
         """Sparse (6 m, ndof): u ↦ the mean strains of `cells` (default all, m of them),
@@ -164,10 +183,10 @@ class DamageModel(ElasticModel):
         step = np.maximum(new_t, new_c) - self.damage[grow]
         self.damage_t[grow], self.damage_c[grow] = new_t, new_c
         self.damage[grow] = np.maximum(new_t, new_c)
-        u = self._u[self._cell_dofs[grow]]
-        self.dissipated += 0.5 * float(step @ np.einsum("ci,cij,cj->c", u, self._rest_of(grow), u))
         split = self.split(eps)
-        hit, w, sig, pos = split
+        hit, w, sig, pos, (u_c, rest_force) = split
+        rows = self._rest_row[grow]
+        self.dissipated += 0.5 * float(step @ np.einsum("ci,ci->c", u_c[rows], rest_force[rows]))
         at = np.searchsorted(hit, grow)       # grow ⊂ hit: a growing damage is > 0
         y_t = 0.5 * contract(pos[:, at], w[:, at])
         y_c = 0.5 * contract(sig[:, at] - pos[:, at], w[:, at])
@@ -175,19 +194,24 @@ class DamageModel(ElasticModel):
         return split
 
     def split(self, eps=None):
-        """(hit, ε, σ̄, σ̄⁺): the damaged cells, their (α-weighted) strains, effective stresses
-        and positive parts, (6, len(hit)) each (eps: all cells' plain strains, if already
-        known)."""
+        """(hit, ε, σ̄, σ̄⁺, (u_c, K_rest,c u_c)): the damaged cells, their (α-weighted) strains,
+        effective stresses and positive parts, (6, len(hit)) each, and the cells' displacements
+        and undamaged higher-order forces in the store's order (eps: all cells' plain strains,
+        if already known)."""
         hit = np.flatnonzero(self.damage)
         if hit.size == 0:
-            return hit, None, None, None
+            return hit, None, None, None, (None, None)
+        self._store_rest(hit)
+        k = self._rest_count
+        u_c = self._u[self._cell_dofs[self._rest_cells[:k]]]
+        rest_force = (self._rest[:k] @ u_c[:, :, None])[:, :, 0]
         eps = self.cell_strain() if eps is None else eps
         if self._weighted_cells.size:
             eps = eps.copy()
             eps[:, self._weighted_cells] = (self._weighted_strain @ self._u).reshape(6, -1)
         w = eps[:, hit]
         sig = self.law.effective_stress(w)
-        return hit, w, sig, positive_part(sig)
+        return hit, w, sig, positive_part(sig), (u_c, rest_force)
 
     # --- forces and energies ----------------------------------------------------------------
     def internal_force(self, split=None):
@@ -195,15 +219,14 @@ class DamageModel(ElasticModel):
         cells' `split` of the current u, if already known)."""
         self._K_petsc.mult(self._u_vec, self._work_vec)
         self._force[:] = self._work
-        hit, _, sig, pos = self.split() if split is None else split
+        hit, _, sig, pos, (_, rest_force) = self.split() if split is None else split
         if hit.size:
             self._lost[:, hit] = self._weighted_volume[hit] * (
                 self.damage_t[hit] * pos + self.damage_c[hit] * (sig - pos))
             self._force -= self._force_operator @ self._lost.ravel()
-            dofs = self._cell_dofs[hit]
-            rest = self.damage[hit, None] * np.einsum("cij,cj->ci", self._rest_of(hit),
-                                                       self._u[dofs])
-            self._force -= np.bincount(dofs.ravel(), rest.ravel(), minlength=self.ndof)
+            cells = self._rest_cells[:self._rest_count]
+            self._force -= np.bincount(self._cell_dofs[cells].ravel(), (
+                self.damage[cells, None] * rest_force).ravel(), minlength=self.ndof)
         return self._force
 
     def predict(self, dt):
