@@ -13,12 +13,12 @@ A cell's stiffness is its one-point part V B̄ᵀ C B̄ plus what the quadrature
 law's split takes from the first; the cell's damage D = max(D_t, D_c) scales the second, so
 that a cracked cell cannot go on carrying a bending moment through it (kept whole, it held
 18 % of the small-scale slab strip's bending energy with every cell at D = 1). Its force
-−D_c K_rest,c u_c runs over the damaged cells only, their 24 × 24 matrices computed when they
+−D K_rest,c u_c runs over the damaged cells only, their matrices (3 nv × 3 nv) made when they
 first damage.
 Uniform strains, and with them the law's curves in a cell, are exact. With a weight α (the
-consistent bridging weighting) the means are α's, as in K, in the cells it touches. The strain energy is ½ u·f; the
-energy dissipated is Σ_c V_c (½ σ̄⁺:ε̄ ΔD_t + ½ σ̄⁻:ε̄ ΔD_c) + ½ u_cᵀ K_rest,c u_c ΔD (energy release
-rates times the increments).
+consistent bridging weighting) the means are α's, as in K, in the cells it touches. The
+strain energy is ½ u·f; the energy dissipated is Σ_c V_c (½ σ̄⁺:ε̄ ΔD_t + ½ σ̄⁻:ε̄ ΔD_c)
++ ½ u_cᵀ K_rest,c u_c ΔD (energy release rates times the increments).
 
 Serial only: a cell's strain needs its ghost nodes, which this model does not exchange.
 """
