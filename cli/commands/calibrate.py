@@ -64,8 +64,8 @@ def configure(p):
                         "bending strip to failure that the spheres run too, and compare the "
                         "curves (twin.json, twin.png)")
     p.add_argument("--no-bending", action="store_true",
-                   help="with --fe-twin: leave out the bending strip (its spheres take ~3 min "
-                        "at small scale, over an hour at paper scale)")
+                   help="with --fe-twin: leave out the bending strip (its spheres take ~4 min "
+                        "at small scale, 9 at medium, over an hour at paper scale)")
     p.add_argument("--concrete", choices=CONCRETES, default="plain",
                    help="with --fe-twin: the scale's CPM set whose record is compared "
                         "(default plain)")
