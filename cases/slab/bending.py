@@ -137,6 +137,43 @@ def bending_to_failure_fe(spec, law, speed, end, samples=400):
     `end` (m), explicit steps at half the critical one. Returns (travel, force, the energy the
     damage dissipated, the cells along x, y, z): the force the strip puts back on the patch,
     positive upwards."""
+    m, driven, n = _fe_strip(spec, law)
+    dt = 0.5 * m.critical_dt()
+    steps = int(np.ceil(end / speed / dt))
+    every = max(1, steps // samples)
+    # every node starts on the elastic strip's static deflection shape, scaled to the patch's
+    # speed: no ringing from the start (the FE has no damping)
+    shape = _static_shape(m, driven)
+    m.u = np.where(m.fixed, 0.0, speed * dt * shape)   # one step ahead, as the patch:
+    m.v = np.where(m.fixed, 0.0, speed * shape)
+    m.correct(driven, np.full(driven.size, -speed * dt), dt)
+    travel, force = [0.0], [0.0]
+    for k in range(1, steps + 1):
+        m.predict(dt)
+        if k % every == 0 or k == steps:
+            travel.append(-m.u[driven].mean())
+            force.append(-m.internal_force()[driven].sum())
+    return np.array(travel), np.array(force), m.dissipated, n
+
+
+def higher_order_share(spec, law):
+    """The share of the FE strip's bending energy (its static deflection under the patch) that
+    its cells' higher-order stiffness carries (K_c less the one-point part: what the damage
+    law's split does not see), and the share left with every cell at D = 1."""
+    from fenicsx_side.damage_law import contract
+    m, driven, _ = _fe_strip(spec, law)
+    m.u = np.where(m.fixed, 0.0, _static_shape(m, driven))
+    m.correct(driven, np.full(driven.size, -1.0), 1.0)
+    total = float(m.u @ (m.K @ m.u))
+    eps = m.cell_strain()
+    one_point = float(m.cell_volume @ contract(law.effective_stress(eps), eps))
+    m.damage_t[:] = m.damage_c[:] = m.damage[:] = 1.0
+    return 1 - one_point / total, float(m.u @ m.internal_force()) / total
+
+
+def _fe_strip(spec, law):
+    """The FE strip with the damage law `law` on the scale's grid, held in z at both ends and
+    at its patch's top nodes. Returns (model, the patch's z dofs, cells along x, y, z)."""
     from fenicsx_side.damaged import DamageModel
     from fenicsx_side.mesh import box_mesh
     from fenicsx_side.model import face
@@ -149,26 +186,16 @@ def bending_to_failure_fe(spec, law, speed, end, samples=400):
                     spec.density, [(face(0, 0.0), (2,)), (face(0, slab.SLAB[0]), (2,)),
                                    (top, (2,))])
     z = np.arange(m.ndof) % 3 == 2
-    driven = np.flatnonzero(m.fixed & z & np.repeat(top(m.nodes.T), 3))
-    dt = 0.5 * m.critical_dt()
-    steps = int(np.ceil(end / speed / dt))
-    every = max(1, steps // samples)
-    # every node starts on the elastic strip's static deflection shape, scaled to the patch's
-    # speed: no ringing from the start (the FE has no damping)
+    return m, np.flatnonzero(m.fixed & z & np.repeat(top(m.nodes.T), 3)), tuple(n)
+
+
+def _static_shape(m, driven):
+    """The static deflection of model m with its `driven` dofs at −1 (the others held at 0)."""
     shape = np.zeros(m.ndof)
     shape[driven] = -1.0
     free = np.flatnonzero(~m.fixed)
     shape[free] = _static_solve(m.K, free, -(m.K[:, driven] @ shape[driven])[free])
-    m.u = np.where(m.fixed, 0.0, speed * dt * shape)   # one step ahead, as the patch:
-    m.v = np.where(m.fixed, 0.0, speed * shape)
-    m.correct(driven, np.full(driven.size, -speed * dt), dt)
-    travel, force = [0.0], [0.0]
-    for k in range(1, steps + 1):
-        m.predict(dt)
-        if k % every == 0 or k == steps:
-            travel.append(-m.u[driven].mean())
-            force.append(-m.internal_force()[driven].sum())
-    return np.array(travel), np.array(force), m.dissipated, tuple(n)
+    return shape
 
 
 def _static_solve(K, free, rhs, refinements=3):
@@ -203,7 +230,20 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scale", choices=tuple(slab.SCALES), default="small")
     p.add_argument("--load", type=float, default=2e4, help="total force P (N), elastic range")
+    p.add_argument("--higher-order", action="store_true",
+                   help="only the share of the FE strip's bending energy in its cells' "
+                        "higher-order stiffness, and what every cell at D = 1 leaves (FE damage "
+                        "law of the scale; Gf 443.5 J/m² where the scale has none)")
     a = p.parse_args(argv)
+    if a.higher_order:
+        from cases.slab.scales import concrete_set
+        from fenicsx_side.damage_law import ConcreteDamage
+        gf = None if concrete_set(a.scale, "plain").fracture_energy else 443.5
+        spec = slab.SlabSpec(scale=a.scale, fe_material="damage", fracture_energy=gf)
+        share, left = higher_order_share(spec, ConcreteDamage(**spec.damage_law()))
+        print(json.dumps({"scale": a.scale, "higher_order_share": share,
+                          "left_at_full_damage": left}))
+        return
     spec = slab.SlabSpec(scale=a.scale)
     w_fe = fe_deflection(spec, a.load)
     w_de, spheres = de_deflection(spec, a.load)
