@@ -4,17 +4,19 @@ cell's stiffness to its average strain on the two signs of the effective stress 
 closes in compression).
 
 Cell stress on the mean strain ε̄_c: σ_c = σ̄_c − D_t σ̄⁺_c − D_c σ̄⁻_c, σ̄ = C : ε̄. The internal
-force is f = K u − Sᵀ(V (D_t σ̄⁺ + D_c σ̄⁻)): PETSc's elastic mat-vec, one sparse mat-vec for
-the cells' mean strains S u and one with Sᵀ, and numpy arrays of the six strain components
-over the cells in between (fenicsx_side.damage_law's component-major layout), and the damaged
-cells' higher-order part.
+force is f = K u − Σ_c B̄_cᵀ V_c (D_t σ̄⁺ + D_c σ̄⁻)_c: PETSc's elastic mat-vec, one sparse
+mat-vec for the cells' mean strains B̄ u, numpy arrays of the six strain components over the
+cells in between (fenicsx_side.damage_law's component-major layout), and the damaged cells'
+lost forces gathered cell by cell.
 A cell's stiffness is its one-point part V B̄ᵀ C B̄ plus what the quadrature adds, K_c − V B̄ᵀ C B̄
 (positive semi-definite: the strain's variation inside the cell, the cell's own bending). The
 law's split takes from the first; the cell's damage D = max(D_t, D_c) scales the second, so
 that a cracked cell cannot go on carrying a bending moment through it (kept whole, it held
 18 % of the small-scale slab strip's bending energy with every cell at D = 1). Its force
-−D K_rest,c u_c runs over the damaged cells only, their matrices (3 nv × 3 nv) made when they
-first damage.
+−D K_rest,c u_c runs over the damaged cells only. A damaged cell's lost force is thus
+(D_t σ̄⁺ + D_c σ̄⁻)_c V B̄_c + D u_c K_rest,c: cells of one shape and weighting (the unweighted
+cells of a structured mesh) share V B̄ and K_rest, applied to the class in two matrix
+products; any other cell gets its own when it first damages.
 Uniform strains, and with them the law's curves in a cell, are exact. With a weight α (the
 consistent bridging weighting) the means are α's, as in K, in the cells it touches. The
 strain energy is ½ u·f; the energy dissipated is Σ_c V_c (½ σ̄⁺:ε̄ ΔD_t + ½ σ̄⁻:ε̄ ΔD_c)
@@ -31,6 +33,16 @@ from fenicsx_side.damage_law import (PAIRS, band_width, components, contract, po
 from fenicsx_side.model import ElasticModel
 
 _BASIX_CELL = {4: basix.CellType.tetrahedron, 8: basix.CellType.hexahedron}
+# Cells alike to this many digits share their operators (cells equal to round-off, as a
+# structured mesh's are, differ in the 14th): classes of fewer than SHARED_MIN cells are not
+# worth it.
+SHARE_DIGITS = 9
+SHARED_MIN = 8
+
+
+def _apply(x, op):
+    """x_c op_c for the rows of x: one matrix product with a shared op (2-D), else per row."""
+    return x @ op if op.ndim == 2 else (x[:, None, :] @ op)[:, 0, :]
 
 
 class DamageModel(ElasticModel):
@@ -56,11 +68,12 @@ class DamageModel(ElasticModel):
         self.damage_t, self.damage_c, self.damage = np.zeros(n), np.zeros(n), np.zeros(n)
         self.dissipated = 0.0
         self._force = np.zeros(self.ndof)
-        self._lost = np.zeros((6, n))
         self._cell_dofs = (3 * self.cell_nodes[:, :, None] + np.arange(3)).reshape(n, -1)
-        self._rest = np.zeros((0,) + 2 * self._cell_dofs.shape[1:])  # of the damaged cells
-        self._rest_row = np.full(n, -1)          # each cell's row there (-1: none yet)
-        self._rest_cells, self._rest_count = np.zeros(0, int), 0
+        dofs = self._cell_dofs.shape[1]
+        self._own_ops = (np.zeros((0, 6, dofs)), np.zeros((0, dofs, dofs)))  # cells of their own
+        self._own_row = np.full(n, -1)          # each cell's row there (-1: none yet)
+        self._own_count = 0
+        self._position = np.zeros(n, int)        # a damaged cell's place in `split`'s order
 
     def _cells_geometry(self, degree, weight):
         """Per cell: volume, centre, mean strain operators (plain, for the strain the law
@@ -77,6 +90,7 @@ class DamageModel(ElasticModel):
         mean = lambda v: np.einsum("cq,cqia->cia", v, grad) / v.sum(axis=1)[:, None, None]
         self._strain = self._strain_operator(mean(dv))
         dv_weighted, self._weighted_cells = dv, np.arange(0)
+        alpha_nodes = None
         if weight is not None:
             alpha_nodes = np.asarray(weight(self._local_nodes), float)
             dv_weighted = dv * np.einsum("pi,pi->p", N, alpha_nodes[np.repeat(
@@ -86,9 +100,8 @@ class DamageModel(ElasticModel):
         weighted = mean(dv_weighted)
         self._quadrature = (grad, dv_weighted, weighted)   # for the cells' higher-order part
         self._weighted_strain = self._strain_operator(weighted, self._weighted_cells)
-        # f = Sᵀ (V σ) with S the α-weighted strains: the shear components count twice in σ : ε
-        twice = np.repeat([1.0, 1.0, 1.0, 2.0, 2.0, 2.0], n_cells)
-        self._force_operator = (self._strain_operator(weighted).T @ sp.diags(twice)).tocsr()
+        self._classes(alpha_nodes[self.cell_nodes] if weight is not None
+                      else np.ones(self.cell_nodes.shape))
         centre = np.tile(self._reference_centre(), (n_cells, 1))
         self._centre_grad = self._basis_at(np.arange(n_cells), centre)[1]  # (n, nv, 3)
 
@@ -115,23 +128,66 @@ class DamageModel(ElasticModel):
             return Bw.transpose(0, 2, 1) @ CB
         return stiffness(grad, dv) - stiffness(mean_grad[:, None], dv.sum(axis=1)[:, None])
 
-    def _store_rest(self, cells):
-        """Store the higher-order matrices of the damaged `cells` not stored yet, in the order
-        they first damage (damage never falls, so the store's cells are the damaged ones);
-        the store doubles when full. Returns their rows for `cells`."""
-        new = cells[self._rest_row[cells] < 0]
+    def _lost_operators(self, cells):
+        """Per cell of `cells`: its nodal force per unit lost stress, V_w B̄ (6, 3 nv) (row k:
+        f_ia = V_w Σ_b ∂N_i/∂x_b σ_ab of σ the symmetric unit tensor of component PAIRS[k]),
+        and its higher-order matrix (3 nv, 3 nv)."""
+        g = self._quadrature[2][cells]
+        m, nv, _ = g.shape
+        B = np.zeros((m, 6, nv, 3))
+        for k, (a, b) in enumerate(PAIRS):
+            B[:, k, :, a] = g[:, :, b]
+            if a != b:
+                B[:, k, :, b] = g[:, :, a]
+        B *= self._weighted_volume[cells, None, None, None]
+        return B.reshape(m, 6, 3 * nv), self._higher_order(cells)
+
+    def _classes(self, alpha):
+        """Cells whose vertices sit alike (relative to their first, to SHARE_DIGITS digits of
+        the median cell size) with alike α at them (alpha: (n, nv)) have the same operators
+        (`_lost_operators`): classes of at least SHARED_MIN cells get them once, from their
+        first cell. `_class_of`: each cell's class, −1 for a cell of its own; `_by_class`: the
+        cells in class order, their own first."""
+        xc = self._local_nodes[self.cell_nodes]
+        size = np.median(np.cbrt(self.cell_volume))
+        key = np.round(np.concatenate([((xc - xc[:, :1]) / size).reshape(len(xc), -1), alpha],
+                                      axis=1) * 10.0 ** SHARE_DIGITS).astype(np.int64)
+        _, first, inverse, counts = np.unique(key, axis=0, return_index=True,
+                                              return_inverse=True, return_counts=True)
+        shared = np.flatnonzero(counts >= SHARED_MIN)
+        number = np.full(len(counts), -1)
+        number[shared] = np.arange(shared.size)
+        self._class_of = number[inverse.ravel()]
+        self._by_class = np.argsort(self._class_of, kind="stable")
+        self._class_ops = self._lost_operators(first[shared])
+
+    def _own_operators(self, cells):
+        """The operators of `cells` (of their own), made the first time they are asked for:
+        the store keeps them in that order and doubles when full."""
+        new = cells[self._own_row[cells] < 0]
         if new.size:
-            start = self._rest_count
-            if start + new.size > len(self._rest):
-                size = max(2 * len(self._rest), start + new.size)
-                grown, cells_grown = np.empty((size,) + self._rest.shape[1:]), np.empty(size, int)
-                grown[:start], cells_grown[:start] = self._rest[:start], self._rest_cells[:start]
-                self._rest, self._rest_cells = grown, cells_grown
-            self._rest[start:start + new.size] = self._higher_order(new)
-            self._rest_cells[start:start + new.size] = new
-            self._rest_row[new] = start + np.arange(new.size)
-            self._rest_count = start + new.size
-        return self._rest_row[cells]
+            start = self._own_count
+            if start + new.size > len(self._own_ops[1]):
+                size = max(2 * len(self._own_ops[1]), start + new.size)
+                self._own_ops = tuple(np.concatenate([x[:start], np.empty((size - start,)
+                                                      + x.shape[1:])]) for x in self._own_ops)
+            for store, made in zip(self._own_ops, self._lost_operators(new)):
+                store[start:start + new.size] = made
+            self._own_row[new] = start + np.arange(new.size)
+            self._own_count = start + new.size
+        rows = self._own_row[cells]
+        return tuple(x[rows] for x in self._own_ops)
+
+    def _groups(self, hit):
+        """The damaged cells `hit` (in class order) in groups of one class or their own:
+        [(slice of hit, force operator, higher-order matrix)], shared (2-D) or per cell."""
+        bounds = np.searchsorted(self._class_of[hit], np.arange(-1, len(self._class_ops[1])),
+                                 side="right")
+        groups = [(slice(0, bounds[0]),) + self._own_operators(hit[:bounds[0]])]
+        for c in np.flatnonzero(np.diff(bounds)):
+            groups.append((slice(bounds[c], bounds[c + 1]), self._class_ops[0][c],
+                           self._class_ops[1][c]))
+        return groups
 
     def _strain_operator(self, mean_grad, cells=None):
         """Sparse (6 m, ndof): u ↦ the mean strains of `cells` (default all, m of them),
@@ -184,49 +240,52 @@ class DamageModel(ElasticModel):
         self.damage_t[grow], self.damage_c[grow] = new_t, new_c
         self.damage[grow] = np.maximum(new_t, new_c)
         split = self.split(eps)
-        hit, w, sig, pos, (u_c, rest_force) = split
-        rows = self._rest_row[grow]
-        self.dissipated += 0.5 * float(step @ np.einsum("ci,ci->c", u_c[rows], rest_force[rows]))
-        at = np.searchsorted(hit, grow)       # grow ⊂ hit: a growing damage is > 0
+        hit, w, sig, pos, (u_c, rest_force, _) = split
+        at = self._position[grow]             # grow ⊂ hit: a growing damage is > 0
+        self.dissipated += 0.5 * float(step @ np.einsum("ci,ci->c", u_c[at], rest_force[at]))
         y_t = 0.5 * contract(pos[:, at], w[:, at])
         y_c = 0.5 * contract(sig[:, at] - pos[:, at], w[:, at])
         self.dissipated += float(self._weighted_volume[grow] @ (y_t * step_t + y_c * step_c))
         return split
 
     def split(self, eps=None):
-        """(hit, ε, σ̄, σ̄⁺, (u_c, K_rest,c u_c)): the damaged cells, their (α-weighted) strains,
-        effective stresses and positive parts, (6, len(hit)) each, and the cells' displacements
-        and undamaged higher-order forces in the store's order (eps: all cells' plain strains,
-        if already known)."""
-        hit = np.flatnonzero(self.damage)
+        """(hit, ε, σ̄, σ̄⁺, (u_c, K_rest,c u_c, groups)): the damaged cells in class order, their
+        (α-weighted) strains, effective stresses and positive parts (6, len(hit)), their
+        displacements and undamaged higher-order forces (len(hit), 3 nv), and `_groups`
+        (eps: all cells' plain strains, if already known)."""
+        hit = self._by_class[self.damage[self._by_class] > 0]
         if hit.size == 0:
-            return hit, None, None, None, (None, None)
-        self._store_rest(hit)
-        k = self._rest_count
-        u_c = self._u[self._cell_dofs[self._rest_cells[:k]]]
-        rest_force = (self._rest[:k] @ u_c[:, :, None])[:, :, 0]
+            return hit, None, None, None, (None, None, None)
+        self._position[hit] = np.arange(hit.size)
+        groups = self._groups(hit)
+        u_c = self._u[self._cell_dofs[hit]]
+        rest_force = np.empty_like(u_c)
+        for rows, _, rest in groups:
+            rest_force[rows] = _apply(u_c[rows], rest)
         eps = self.cell_strain() if eps is None else eps
         if self._weighted_cells.size:
             eps = eps.copy()
             eps[:, self._weighted_cells] = (self._weighted_strain @ self._u).reshape(6, -1)
         w = eps[:, hit]
         sig = self.law.effective_stress(w)
-        return hit, w, sig, positive_part(sig), (u_c, rest_force)
+        return hit, w, sig, positive_part(sig), (u_c, rest_force, groups)
 
     # --- forces and energies ----------------------------------------------------------------
     def internal_force(self, split=None):
-        """K u − Sᵀ(V (D_t σ̄⁺ + D_c σ̄⁻)) (a buffer reused at the next call; split: the damaged
-        cells' `split` of the current u, if already known)."""
+        """K u less the damaged cells' lost forces, V_w B̄ᵀ (D_t σ̄⁺ + D_c σ̄⁻) + D K_rest u_c (a
+        buffer reused at the next call; split: the damaged cells' `split` of the current u,
+        if already known)."""
         self._K_petsc.mult(self._u_vec, self._work_vec)
         self._force[:] = self._work
-        hit, _, sig, pos, (_, rest_force) = self.split() if split is None else split
+        hit, _, sig, pos, (_, rest_force, groups) = self.split() if split is None else split
         if hit.size:
-            self._lost[:, hit] = self._weighted_volume[hit] * (
-                self.damage_t[hit] * pos + self.damage_c[hit] * (sig - pos))
-            self._force -= self._force_operator @ self._lost.ravel()
-            cells = self._rest_cells[:self._rest_count]
-            self._force -= np.bincount(self._cell_dofs[cells].ravel(), (
-                self.damage[cells, None] * rest_force).ravel(), minlength=self.ndof)
+            stress = np.ascontiguousarray((self.damage_t[hit] * pos
+                                           + self.damage_c[hit] * (sig - pos)).T)
+            lost = self.damage[hit, None] * rest_force
+            for rows, force, _ in groups:
+                lost[rows] += _apply(stress[rows], force)
+            self._force -= np.bincount(self._cell_dofs[hit].ravel(), lost.ravel(),
+                                       minlength=self.ndof)
         return self._force
 
     def predict(self, dt):

@@ -413,3 +413,16 @@ def test_a_checkpointed_history_carries_on_bit_for_bit():
         b.predict(dt)
     assert np.array_equal(a.u, b.u) and np.array_equal(a.damage, b.damage)
     assert a.dissipated == b.dissipated
+
+
+def test_cells_that_share_operators_have_their_own_to_the_shared_digits():
+    """A structured mesh's cells share V B̄ and K_rest per class (α in the key): each cell's
+    class operators equal the ones made from the cell itself."""
+    msh = box([0, 0, 0], [0.8, 0.2, 0.1], [8, 2, 2], mesh.CellType.hexahedron)
+    m = DamageModel(msh, LAW, RHO, weight=lambda x: np.where(x[:, 0] < 0.4, 1.0, 0.5))
+    cells = np.arange(len(m.cell_nodes))
+    shared = cells[m._class_of >= 0]
+    assert shared.size >= 8 and len(m._class_ops[1]) >= 2   # α = 1 cells, α = ½ cells
+    for mine, theirs in zip(m._lost_operators(shared),
+                            (x[m._class_of[shared]] for x in m._class_ops)):
+        assert np.abs(mine - theirs).max() <= 1e-9 * np.abs(mine).max()
