@@ -161,13 +161,15 @@ class Model:
         self.sensor_order = None
         self._sensor_spheres, self._sensor_nodes = BodySet([]), np.empty(0, int)
         self._seconds = {"yade": 0.0, "fe": 0.0, "coupling": 0.0}
+        from yade_side.distributed import remote
+        self._de_step = self.O.step if remote() is None else remote().step
 
     # --- stepping ----------------------------------------------------------------------------
     def step(self):
         p = self.parts
         t0 = perf_counter()
         if self.stepper is None or p.inside_step:
-            self.O.step()
+            self._de_step()
         else:
             self.stepper.de_step()
         self._seconds["yade"] += perf_counter() - t0
@@ -241,13 +243,12 @@ class Model:
         """{"de_kinetic", "de_links", "fe_kinetic", "fe_strain"} (J). YADE's
         Law2_ScGeom_CpmPhys_Cpm.elasticEnergy() turns NaN once two bodies touch; it is then
         left out (0) and the kinetic energy alone is guarded."""
-        from yade_side.scene import cpm_law
+        from yade_side.distributed import elastic_energy
         kinetic = 0.0
         for bodies in self.energy_bodies:
             bodies.read()
             kinetic += bodies.kinetic_energy()
-        law = cpm_law()           # looked up each time: a loaded checkpoint replaces engines
-        elastic = law.elasticEnergy() if law is not None else 0.0
+        elastic = elastic_energy()    # the law looked up each time: a checkpoint replaces engines
         parts = {"de_kinetic": kinetic, "de_links": elastic if np.isfinite(elastic) else 0.0}
         if self.fe is not None:
             parts.update(fe_kinetic=self.fe.kinetic_energy(), fe_strain=self.fe.strain_energy())

@@ -3,7 +3,8 @@
 One call reads or writes the 13 state values of every body of the set (pos, vel, angVel,
 ori as x, y, z, w): by a numpy gather/scatter in YADE's memory when its layout is verified
 (yade_side.memory), else through YADE's C++ `Subdomain.get/setStateValuesFromIds`, which
-works in a plain serial scene. No per-body Python in the time loop either way.
+works in a plain serial scene. No per-body Python in the time loop either way. Once a scene
+is split over MPI ranks (yade_side.distributed), they go to the bodies' owners.
 """
 import array
 import weakref
@@ -11,6 +12,7 @@ import weakref
 import numpy as np
 
 from yade_side import import_yade
+from yade_side.distributed import remote
 from yade_side.memory import SceneReplaced, locate
 
 _POS, _VEL, _ANGVEL, _ORI = slice(0, 3), slice(3, 6), slice(6, 9), slice(9, 13)
@@ -69,7 +71,9 @@ class BodySet:
 
     def read(self):
         self._check_attached()
-        if self._memory is not None:
+        if remote() is not None:
+            self.state[:] = remote().states(self.ids)
+        elif self._memory is not None:
             self._memory.read(self.state)
         else:
             # array.array converts YADE's list of floats in C: twice as fast as np.array(list)
@@ -79,7 +83,9 @@ class BodySet:
 
     def write(self):
         self._check_attached()
-        if self._memory is not None:
+        if remote() is not None:
+            remote().put(self.ids, self.state)
+        elif self._memory is not None:
             self._memory.write(self.state)
         else:
             self._api_put(self._id_list, self.state.ravel().tolist())

@@ -9,6 +9,7 @@ Walking O.interactions costs ~1 µs per entry: call update() every few hundred s
 import numpy as np
 
 from yade_side import import_yade
+from yade_side.distributed import remote
 from yade_side.scene import BROKEN_OMEGA
 
 EXCLUDED = -2        # LinkDamage's index of a sphere whose links are not counted
@@ -19,7 +20,6 @@ class LinkDamage:
         """ids: the spheres whose damage is measured; links with an end among `exclude` (e.g.
         the steel of reinforcement bars) are no links of theirs. Call record_initial() once
         the cohesive links exist (after create_cohesive_links)."""
-        self._O = import_yade().Omega()
         self.ids = np.asarray(ids, dtype=int)
         exclude = np.asarray(exclude, dtype=int)
         self._index = np.full(max(self.ids.max(), exclude.max(initial=0)) + 1, -1)
@@ -34,13 +34,10 @@ class LinkDamage:
         return self.initial
 
     def _cohesive_links(self, require_intact):
-        pairs = []
-        for i in self._O.interactions:
-            phys = i.phys
-            if phys is not None and phys.isCohesive and (
-                    not require_intact or phys.omega < BROKEN_OMEGA):
-                pairs.append((i.id1, i.id2))
-        return self._kept(np.array(pairs, int).reshape(-1, 2))
+        pairs, omega = cohesive_interactions()
+        if require_intact:
+            pairs = pairs[omega < BROKEN_OMEGA]
+        return self._kept(pairs)
 
     def _kept(self, pairs):
         """The pairs with no excluded end."""
@@ -68,13 +65,7 @@ class LinkDamage:
         indices of their two spheres in `ids` (-1 for an end that is not measured), omega their
         CPM damage ω now, a broken link (ω >= BROKEN_OMEGA: deleted, or about to be) counting
         as 1; one walk over O.interactions."""
-        now, now_omega = [], []
-        for i in self._O.interactions:
-            phys = i.phys
-            if phys is not None and phys.isCohesive:
-                now.append((i.id1, i.id2))
-                now_omega.append(phys.omega)
-        now = np.array(now, int).reshape(-1, 2)
+        now, now_omega = cohesive_interactions()
         local = self._local(self._links)
         mine = (local >= 0).any(axis=1)
         links = self._links[mine]
@@ -86,7 +77,7 @@ class LinkDamage:
         found = at < len(links)
         found[found] &= key(links)[order][at[found]] == key(now[found])
         omega = np.ones(len(links))
-        omega[order[at[found]]] = np.asarray(now_omega, float)[found]
+        omega[order[at[found]]] = now_omega[found]
         omega[omega >= BROKEN_OMEGA] = 1.0
         return local[mine], omega
 
@@ -109,6 +100,20 @@ class LinkDamage:
     def broken_links(self):
         """Total broken links (each counted once)."""
         return int(len(self._links) - len(self._cohesive_links(require_intact=True)))
+
+
+def cohesive_interactions():
+    """(pairs (n, 2) of body ids, omega (n,)) of the scene's cohesive interactions now: one walk
+    over O.interactions, or over each MPI rank's (yade_side.distributed)."""
+    if remote() is not None:
+        return remote().links()
+    pairs, omega = [], []
+    for i in import_yade().Omega().interactions:
+        phys = i.phys
+        if phys is not None and phys.isCohesive:
+            pairs.append((i.id1, i.id2))
+            omega.append(phys.omega)
+    return np.array(pairs, int).reshape(-1, 2), np.array(omega, float)
 
 
 def _links_and_midpoints():

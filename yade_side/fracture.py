@@ -36,7 +36,8 @@ from scipy.optimize import brentq
 from yade_side import import_yade
 from yade_side.bulk import BodySet
 from yade_side.calibration import Loading, uniaxial_scene
-from yade_side.scene import BROKEN_OMEGA, cpm_law
+from yade_side.distributed import elastic_energy
+from yade_side.scene import BROKEN_OMEGA
 
 RESIDUAL = 0.01     # full separation: |σ| below this × peak ...
 SEPARATION_STRAIN = 1e-2   # ... reached before this strain between the ends, else not separated
@@ -162,8 +163,7 @@ def separation_test(sample, params, loading=Loading(), material=None, residual=R
             break
         if d / gauge > max_strain:
             break
-    law = cpm_law()
-    elastic = law.elasticEnergy() if law is not None else 0.0
+    elastic = elastic_energy()
     free.read()
     kinetic = free.kinetic_energy() if len(free) else 0.0
     damping = float(O.energy["nonviscDamp"]) if "nonviscDamp" in O.energy.keys() else 0.0

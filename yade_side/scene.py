@@ -135,6 +135,13 @@ def cpm_law():
     return None
 
 
+def link_energy(phys):
+    """One CpmPhys's elastic energy as Law2_ScGeom_CpmPhys_Cpm.elasticEnergy() sums it: the
+    normal stiffness damaged in tension only."""
+    kn = (1.0 - (phys.omega if phys.epsN > 0 else 0.0)) * phys.kn
+    return 0.5 * (phys.normalForce.squaredNorm() / kn + phys.shearForce.squaredNorm() / phys.ks)
+
+
 def block_dofs(ids, dofs):
     """Hold the degrees of freedom `dofs` (YADE's blockedDOFs letters, e.g. "z") of the bodies
     `ids` (a support; set once at build time)."""

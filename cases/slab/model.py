@@ -117,7 +117,10 @@ class SlabScene:
         from yade_side.bulk import BodySet
         from yade_side.scene import cpm_engines, create_cohesive_links
         cpm_engines(dt=dt, shear_release=self.spec.shear_release)
-        create_cohesive_links()
+        if self.spec.mpi:
+            self._split()
+        else:
+            create_cohesive_links()
         if self.spec.elastic_outside:
             from yade_side.damage import keep_links_elastic
             self.elastic_links = keep_links_elastic(lambda p: self.bridging.zone.depth(p) > 0)
@@ -129,6 +132,16 @@ class SlabScene:
     def attach(self, couple):
         return False
 
+    def _split(self):
+        """The scene over spec.mpi ranks (yade.mpy): the workers own slices along x of equal
+        count; the split's first step makes the links."""
+        from mpi4py import MPI
+        from yade_side.distributed import RankZeroScene, owners
+        p = self.packs
+        x = np.concatenate([p.slab_centres[self.slab_index, 0], p.impactor_centres[:, 0]])
+        radius = min(p.slab_radii.min(), p.impactor_radii.min())
+        RankZeroScene(MPI.COMM_WORLD).split(owners(x, self.spec.mpi - 1), radius)
+
 
 def description(spec, model, grid=None, dt=None):
     """The builder's description of the slab's `model` (full or coupled), with the DE zone
@@ -136,6 +149,9 @@ def description(spec, model, grid=None, dt=None):
     spec's dt_safety × the critical step)."""
     if model not in MODELS:
         raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
+    if spec.mpi and model != "full":
+        raise ValueError(f"slab: mpi = {spec.mpi} runs the full model on YADE's MPI; the "
+                         f"coupled model runs without it (or its FE under mpirun)")
     if spec.elastic_outside and model != "full":
         raise ValueError("elastic_outside applies to the full model only (the coupled "
                          "model has FE outside its DE zone)")

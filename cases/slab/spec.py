@@ -147,6 +147,10 @@ class SlabSpec:
                            help="bars: the case file's [[reinforcement]] layers, else a "
                                 "two-way mesh of 12 mm bars at 150 mm at both faces, 30 mm "
                                 "cover (docs/reinforcement.md)")
+    mpi: int = key(0, integer, lambda v: None if v == 0 or v >= 2 else
+                   "0 (one process) or >= 2 (rank 0 drives, the others own the spheres)",
+                   help="full model: MPI ranks of YADE's own yade.mpy, launched with mpiexec "
+                        "(docs/mpi.md); 0: one process")
     relaxation_rule: str = None      # set by relaxation "auto": what the rule took r from
     dt_choice: dict = None           # set after dt_safety "auto": what the pre-runs found
     reinforcement: tuple = None      # the bars' layers (cases.reinforcement.Layer, checked)
@@ -177,6 +181,10 @@ class SlabSpec:
                 setattr(self, name, getattr(table, column))
         if self.fe_material == "damage":
             self._check_damage(material)
+        if self.mpi and (self.reinforced or self.elastic_outside):
+            raise ValueError(f"slab: mpi = {self.mpi} runs the plain full slab: not with "
+                             f"{'reinforcement' if self.reinforced else 'elastic_outside'} "
+                             f"(their links are set up in one process)")
         if self.band_ratio is not None:
             if self.zone != "box":
                 raise ValueError(f"slab: band_ratio (a graded FE mesh) applies to box zones, "

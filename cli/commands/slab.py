@@ -54,7 +54,19 @@ def run(args):
     if args.jobs is not None:
         raise ValueError("--jobs is for an ensemble (--seeds)")
     comm = MPI.COMM_WORLD
-    if comm.size > 1:
+    if spec.mpi:
+        if comm.size == 1:
+            return _mpiexec(spec, model, args)
+        if comm.size != spec.mpi:
+            raise ValueError(f"--mpi {spec.mpi} under mpirun -n {comm.size}: give the same "
+                             f"count, or run without mpirun (slab starts mpiexec itself)")
+        if comm.rank > 0:
+            from yade_side import import_yade
+            from yade_side.distributed import serve
+            import_yade(args.threads or 1)
+            serve()
+            return 0
+    elif comm.size > 1:
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
         if model != "coupled":
             raise ValueError(f"--model {model} has no FE part: run it without mpirun")
@@ -68,7 +80,7 @@ def run(args):
             serve(slab.fe_model(spec, grid, slab.fe_weight(spec, grid)))
             return 0
     from yade_side import import_yade
-    import_yade(args.threads)
+    import_yade(args.threads or (1 if spec.mpi else None))
     if args.resume:
         out, start = Path(args.resume), None
         folder.resume_folder(out)
@@ -79,6 +91,25 @@ def run(args):
         return 1                # the one line saying why was printed
     _report(model, spec, s, out)
     return 0
+
+
+def _mpiexec(spec, model, args):
+    """This run again under `mpiexec -n spec.mpi`: rank 0 drives, the other ranks own the
+    spheres (yade_side.distributed); each rank on --threads YADE threads (default 1)."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    launcher = shutil.which("mpiexec")
+    if launcher is None:
+        raise ValueError(f"--mpi {spec.mpi}: no mpiexec on PATH (Debian package openmpi-bin; "
+                         f"`make setup` installs it)")
+    cmd = [launcher, "--oversubscribe", "-n", str(spec.mpi), sys.executable, "-m", "cli",
+           "slab", "--model", model, *_spec_argv(args, spec.seed), "--out", str(args.out),
+           "--threads", str(args.threads or 1)]
+    cmd += [flag for flag, on in (("--force", args.force), ("--quiet", args.quiet)) if on]
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    return subprocess.call(cmd, env=env)
 
 
 def _zone_cells(folder):

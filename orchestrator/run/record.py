@@ -15,8 +15,11 @@ class Recorder:
         self.m, self.out, self.meta, self.log = model, out, meta, log
         self.guard = BlowUpGuard(reference_energy, growth=2.0)
         growing = hasattr(model, "on_grow")
+        from yade_side.distributed import remote
         self.no_checkpoints = ("the FE state is distributed over MPI ranks"
                                if model.fe is not None and model.fe.distributed else
+                               "the YADE scene is split over MPI ranks"
+                               if remote() is not None else
                                "a zone that grows during the run does not resume" if growing
                                else None)
         self.checkpoints = self.no_checkpoints is None
