@@ -50,6 +50,7 @@ def main(argv=None):
     from orchestrator.run.restart import Stopped
     from yade_side.checkpoint import CheckpointError
     args = build_parser().parse_args(argv)
+    args.argv = list(sys.argv[1:] if argv is None else argv)     # to start again (cli.mpi)
     folder.forget()
     try:
         code = args.func(args) or 0

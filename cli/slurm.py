@@ -27,13 +27,14 @@ def write_script(jobs, cases, table, out):
         task += ["--table", str(Path(table).resolve())]
     task += ["--out", str(out), "--task"]
     names = ", ".join(f"{k}: {j.name}" for k, j in enumerate(jobs))
+    ranks = max(_ranks(j) for j in jobs)      # a run on YADE's MPI: its ranks as tasks
     text = (f"#!/bin/bash\n"
             f"# {len(jobs)} runs of a batch, one per array task ({names})\n"
             f"#   sbatch {shlex.quote(str(out / SCRIPT))}\n"
             f"# (sbatch options given on its command line override the ones below)\n"
             f"#SBATCH --job-name={shlex.quote(out.name)}\n"
             f"#SBATCH --array=0-{len(jobs) - 1}\n"
-            f"#SBATCH --ntasks=1\n"
+            f"#SBATCH --ntasks={max(1, ranks)}\n"
             f"#SBATCH --cpus-per-task=1\n"
             f"#SBATCH --output={shlex.quote(str(out / 'logs' / 'slurm-%A_%a.out'))}\n"
             f"set -euo pipefail\n"
@@ -44,6 +45,14 @@ def write_script(jobs, cases, table, out):
     write_text(path, text)
     path.chmod(0o755)
     return path
+
+
+def _ranks(job):
+    """The MPI ranks of a job's run (cli.mpi.case_ranks), 0 for one process."""
+    from cases.kinds import load_case
+    from cli.mpi import case_ranks
+    case = load_case(job.case, [f"{k}={v}" for k, v in job.overrides.items()])
+    return case_ranks(case)
 
 
 def run_task(jobs, out, task):

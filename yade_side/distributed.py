@@ -68,16 +68,14 @@ def owners(x, workers):
 
 
 class RankZeroScene:
-    """Rank 0's handle on the scene its workers own. Collective calls: step, states, put,
-    links, elastic_energy; the workers call serve() instead."""
+    """Rank 0's handle on the scene its workers own. Collective calls: split, step, states,
+    put, links, elastic_energy; the workers call serve() instead, which rank 0 ends by
+    release_workers_at_exit()."""
 
     def __init__(self, comm):
         self.comm = comm
         self.rank = comm.rank
         self._own = np.empty(0, int)
-        self._stopped = False
-        if self.rank == 0:
-            atexit.register(self.stop)  # however rank 0 ends, the workers leave serve()
 
     # --- what rank 0 calls (each is collective) ----------------------------------------------
     def split(self, owner, radius):
@@ -109,11 +107,6 @@ class RankZeroScene:
         """Law2_ScGeom_CpmPhys_Cpm.elasticEnergy() of the whole scene, each link once."""
         return self._call("elastic_energy")
 
-    def stop(self):
-        """Release the workers from serve() (once)."""
-        if not self._stopped:
-            self._stopped = True
-            self._send((_STOP, ()))
 
     # --- the workers ---------------------------------------------------------------------------
     def serve(self):
@@ -136,8 +129,7 @@ class RankZeroScene:
         return getattr(self, f"_{name}")(*args)
 
     def _send(self, call):
-        for worker in range(1, self.comm.size):
-            self.comm.send(call, dest=worker, tag=_CALL_TAG)
+        _send(self.comm, call)
 
     def _receive(self):
         """The next call; a worker idle for a while sleeps between looks rather than spin (as
@@ -265,3 +257,14 @@ def serve():
     """Ranks > 0: own bodies of rank 0's scene and step them until rank 0 stops."""
     from mpi4py import MPI
     RankZeroScene(MPI.COMM_WORLD).serve()
+
+
+def release_workers_at_exit():
+    """Rank 0: however this process ends, the workers leave serve() (once)."""
+    from mpi4py import MPI
+    atexit.register(_send, MPI.COMM_WORLD, (_STOP, ()))
+
+
+def _send(comm, call):
+    for worker in range(1, comm.size):
+        comm.send(call, dest=worker, tag=_CALL_TAG)

@@ -181,6 +181,9 @@ class SlabSpec:
                 setattr(self, name, getattr(table, column))
         if self.fe_material == "damage":
             self._check_damage(material)
+        if self.mpi and self.dt_safety == "auto":
+            raise ValueError(f"slab: mpi = {self.mpi} splits the scene once: not with "
+                             f"dt_safety 'auto', whose pre-runs build it again")
         if self.mpi and (self.reinforced or self.elastic_outside):
             raise ValueError(f"slab: mpi = {self.mpi} runs the plain full slab: not with "
                              f"{'reinforcement' if self.reinforced else 'elastic_outside'} "

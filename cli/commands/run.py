@@ -42,6 +42,13 @@ def run(args):
         case = load(args.case, args.set)      # every key checked before anything runs
         out = Path(args.out or Path("results") / case["case"]["name"])
         check_out(out, args.force, input_files(case))   # refuse before building, not after
+    from cli.mpi import case_ranks
+    ranks = case_ranks(case)
+    if ranks:
+        from cli.mpi import on_ranks
+        code = on_ranks(ranks, args)
+        if code is not None:
+            return code
     s = run_case(case, out, force=args.force, quiet=args.quiet, threads=args.threads,
                  resume=bool(args.resume))
     if case.kind == "wave1d":        # the wave1d command printed its own result line
@@ -50,3 +57,4 @@ def run(args):
           f"FE nodes, {s['n_bridging_spheres']} bridging spheres, {s['steps']} steps of "
           f"{s['dt']:.3g} s, {s['s_per_step'] * 1e3:.2f} ms/step; results in {out}")
     return 0
+

@@ -19,7 +19,8 @@ def configure(p):
     p.add_argument("--seeds", type=_seed_list, metavar="N,N,...",
                    help="an ensemble: one run per packing seed, in DIR/seed-N (instead of --seed)")
     p.add_argument("--jobs", type=count, default=None,
-                   help="ensemble members run at a time (default: one per core)")
+                   help="ensemble members run at a time (default: one per core; with --mpi N, one "
+                        "per N - 1 cores)")
     add_threads(p)
     p.add_argument("--resume", metavar="DIR",
                    help="carry on a stopped run from its checkpoint (other options are taken "
@@ -30,7 +31,6 @@ def configure(p):
 
 def run(args):
     from pathlib import Path
-    from mpi4py import MPI
     from cases import slab
     from orchestrator.run import folder
     if args.resume:
@@ -40,6 +40,9 @@ def run(args):
             raise ValueError("give either --seed or --seeds, not both")
         cells = _zone_cells(args.zone_from) if args.zone_from else None
         spec, model = spec_from_args(slab.SlabSpec, args, zone_cells=cells), args.model
+        if spec.mpi and model != "full":
+            raise ValueError(f"--mpi {spec.mpi} runs the full model on YADE's MPI: not "
+                             f"--model {model} (its FE runs under mpirun, docs/mpi.md)")
         if model == "full" and spec.zone != "box":
             raise ValueError(f"--zone {spec.zone} finds the DE zone of a coupled model: the full "
                              f"model has none (run it with --model coupled)")
@@ -47,26 +50,21 @@ def run(args):
     else:
         raise ValueError("give --model full|coupled and --out DIR for a new run, or --resume DIR")
     if args.seeds:
+        from mpi4py import MPI
         if MPI.COMM_WORLD.size > 1:
             raise ValueError("--seeds runs its members as processes of their own: not under "
                              "mpirun")
-        return _ensemble(model, args)
+        return _ensemble(model, args, spec)
     if args.jobs is not None:
         raise ValueError("--jobs is for an ensemble (--seeds)")
-    comm = MPI.COMM_WORLD
     if spec.mpi:
-        if comm.size == 1:
-            return _mpiexec(spec, model, args)
-        if comm.size != spec.mpi:
-            raise ValueError(f"--mpi {spec.mpi} under mpirun -n {comm.size}: give the same "
-                             f"count, or run without mpirun (slab starts mpiexec itself)")
-        if comm.rank > 0:
-            from yade_side import import_yade
-            from yade_side.distributed import serve
-            import_yade(args.threads or 1)
-            serve()
-            return 0
-    elif comm.size > 1:
+        from cli.mpi import on_ranks
+        code = on_ranks(spec.mpi, args)       # before mpi4py starts: it needs mpiexec
+        if code is not None:
+            return code
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+    if comm.size > 1 and not spec.mpi:
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
         if model != "coupled":
             raise ValueError(f"--model {model} has no FE part: run it without mpirun")
@@ -91,25 +89,6 @@ def run(args):
         return 1                # the one line saying why was printed
     _report(model, spec, s, out)
     return 0
-
-
-def _mpiexec(spec, model, args):
-    """This run again under `mpiexec -n spec.mpi`: rank 0 drives, the other ranks own the
-    spheres (yade_side.distributed); each rank on --threads YADE threads (default 1)."""
-    import os
-    import shutil
-    import subprocess
-    import sys
-    launcher = shutil.which("mpiexec")
-    if launcher is None:
-        raise ValueError(f"--mpi {spec.mpi}: no mpiexec on PATH (Debian package openmpi-bin; "
-                         f"`make setup` installs it)")
-    cmd = [launcher, "--oversubscribe", "-n", str(spec.mpi), sys.executable, "-m", "cli",
-           "slab", "--model", model, *_spec_argv(args, spec.seed), "--out", str(args.out),
-           "--threads", str(args.threads or 1)]
-    cmd += [flag for flag, on in (("--force", args.force), ("--quiet", args.quiet)) if on]
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    return subprocess.call(cmd, env=env)
 
 
 def _zone_cells(folder):
@@ -152,10 +131,12 @@ def _from_checkpoint(args):
     return SlabSpec(**info["spec"]), info["model"]
 
 
-def _ensemble(model, args):
+def _ensemble(model, args, spec):
     """One member per seed, DIR/seed-N, each a `slab --seed N` process of its own, `--jobs` at
-    a time (default: one per core). Members run on one YADE thread unless --threads is given,
-    so each is bit-identical to the same seed run alone with --threads 1."""
+    a time (default: one per core, or per spec.mpi - 1 cores: each member's workers). Members
+    run on one YADE thread unless --threads is given, so each is bit-identical to the same
+    seed run alone with --threads 1."""
+    import os
     import signal
     import subprocess
     import sys
@@ -165,7 +146,7 @@ def _ensemble(model, args):
     from orchestrator.run.restart import Stopped
     from yade_side import cores
     top = prepare_out(args.out, args.force)
-    jobs = args.jobs or max(1, min(len(args.seeds), cores()))
+    jobs = args.jobs or max(1, min(len(args.seeds), cores() // max(1, spec.mpi - 1)))
     quiet = args.quiet or jobs > 1          # one progress bar per terminal
     running, lock, stopped = set(), threading.Lock(), []
 
@@ -176,7 +157,9 @@ def _ensemble(model, args):
         with lock:
             if stopped:                     # asked to stop: start no more members
                 return None
-            proc = subprocess.Popen(cmd)
+            # Python's copy of the environment: not what MPI_Init set in C here (a member's
+            # own mpiexec would try to join this process's MPI and fail)
+            proc = subprocess.Popen(cmd, env=dict(os.environ))
             running.add(proc)
         code = proc.wait()
         with lock:

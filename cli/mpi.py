@@ -1,0 +1,52 @@
+"""Runs on YADE's MPI (yade_side.distributed): a command given `--mpi N` (or a case's
+slab.mpi) starts itself again under `mpiexec -n N`, where rank 0 runs it and the other ranks
+own the spheres."""
+
+
+def on_ranks(ranks, args):
+    """In one process: this command again under mpiexec, its exit code. Under mpiexec: None on
+    rank 0 (which goes on with the command), 0 on the others once they have served."""
+    import shutil
+    launcher = shutil.which("mpiexec")
+    if launcher is None:        # (Open MPI's mpi4py cannot even start without it)
+        raise ValueError(f"--mpi {ranks}: no mpiexec on PATH (Debian package openmpi-bin; "
+                         f"`make setup` installs it)")
+    from mpi4py import MPI
+    comm = MPI.COMM_WORLD
+    if comm.size == 1:
+        return _mpiexec(launcher, ranks, args)
+    if comm.size != ranks:
+        raise ValueError(f"--mpi {ranks} under mpirun -n {comm.size}: give the same count, or "
+                         f"run without mpirun (the command starts mpiexec itself)")
+    if comm.rank == 0:
+        from yade_side.distributed import release_workers_at_exit
+        release_workers_at_exit()
+        return None
+    from yade_side import import_yade
+    from yade_side.distributed import serve
+    import_yade(args.threads or 1)
+    serve()
+    return 0
+
+
+def _mpiexec(launcher, ranks, args):
+    import os
+    import subprocess
+    import sys
+    # each rank on one YADE thread unless --threads says otherwise; root may run it (containers)
+    env = dict(os.environ, OMP_NUM_THREADS=str(args.threads or 1),
+               OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    return subprocess.call([launcher, "--oversubscribe", "-n", str(ranks), sys.executable,
+                            "-m", "cli", *args.argv], env=env)
+
+
+def case_ranks(case):
+    """A slab case's slab.mpi (0 for other kinds): its full model on YADE's MPI."""
+    if case.kind != "slab":
+        return 0
+    from cases.slab.casefile import spec
+    ranks = spec(case).mpi
+    if ranks and case["slab"]["model"] != "full":
+        raise ValueError(f"{case.path}: slab.mpi = {ranks} runs the full model on YADE's MPI: "
+                         f"not slab.model = {case['slab']['model']!r}")
+    return ranks

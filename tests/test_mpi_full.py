@@ -1,0 +1,85 @@
+"""The full slab on YADE's own MPI (yade.mpy, `slab --model full --mpi N`) against the serial
+run of the same seed (docs/mpi.md)."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from yade_side.distributed import owners
+
+STEPS = 150     # the impactor hits at step ~18: links across the slices load, crack, break
+
+
+def _slab(out, *extra, env=None):
+    cmd = [sys.executable, "-m", "cli", "slab", "--model", "full", "--scale", "small",
+           "--steps", str(STEPS), "--quiet", "--out", str(out), *extra]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=600,
+                          env=dict(os.environ, **(env or {})))
+
+
+def test_owners_are_slices_along_x_of_equal_count():
+    x = np.random.default_rng(1).uniform(0, 2.5, 1001)
+    owner = owners(x, 3)
+    assert set(owner) == {1, 2, 3}
+    counts = np.bincount(owner)[1:]
+    assert counts.max() - counts.min() <= 1
+    for a, b in ((1, 2), (2, 3)):
+        assert x[owner == a].max() < x[owner == b].min()
+
+
+def test_three_ranks_give_the_serial_run_to_round_off(tmp_path):
+    """Rank 0 and two workers, the crack crossing the slices' boundary under the impactor.
+    The workers sum a sphere's forces in another order than the serial loop (and the links
+    across the boundary are computed on both ranks), so the runs differ by round-off that the
+    explicit steps carry forward: measured 1e-15 m after 100 steps, 1.2e-10 m after 600.
+    A link lost or a mirror sphere left stale shows at once (3 mm after 100 steps when the
+    impactor's mirrors were not refreshed), far above the bound of 1e-6 of the peak."""
+    serial, mpi = tmp_path / "serial", tmp_path / "mpi"
+    for out, extra in ((serial, ("--threads", "1")), (mpi, ("--mpi", "3"))):
+        proc = _slab(out, *extra)
+        assert proc.returncode == 0, proc.stderr[-3000:]
+    a, b = (np.loadtxt(f / "sensors.csv", delimiter=",", skiprows=1) for f in (serial, mpi))
+    assert a.shape == b.shape
+    assert np.abs(a - b).max() <= 1e-6 * np.abs(a[:, 1:]).max()
+    sa, sb = (json.loads((f / "summary.json").read_text()) for f in (serial, mpi))
+    assert sb["spec"]["mpi"] == 3
+    assert sa["n_spheres"] == sb["n_spheres"]
+    assert sa["damage"]["initial_links"] == sb["damage"]["initial_links"]
+    assert sa["damage"]["broken_links"] == sb["damage"]["broken_links"] > 0
+    # each link's damage is the same to round-off: one at the threshold could flip (never
+    # seen), else the maps are equal
+    da, db = (np.load(f / "damage.npz") for f in (serial, mpi))
+    assert np.abs(da["damage"] - db["damage"]).max() <= 1e-12
+    # the links' energy: each link across the boundary counted once (by its id1's owner)
+    ea, eb = (np.array(s["energy"]) for s in (sa, sb))
+    assert np.abs(ea - eb).max() <= 1e-9 * ea[:, 1].max()
+
+
+@pytest.mark.parametrize("extra, message", [
+    (("--mpi", "1"), "mpi must be 0 (one process) or >= 2"),
+    (("--mpi", "3", "--dt-safety", "auto"), "not with dt_safety 'auto'"),
+])
+def test_bad_ranks_are_one_line(tmp_path, extra, message):
+    proc = _slab(tmp_path / "x", *extra)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [proc.stderr.strip()]
+    assert message in proc.stderr
+
+
+def test_mpi_with_the_coupled_model_is_one_line(tmp_path):
+    cmd = [sys.executable, "-m", "cli", "slab", "--model", "coupled", "--mpi", "3", "--out",
+           str(tmp_path / "x")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.strip() == ("error: --mpi 3 runs the full model on YADE's MPI: not "
+                                   "--model coupled (its FE runs under mpirun, docs/mpi.md)")
+
+
+def test_mpi_without_mpiexec_is_one_line(tmp_path):
+    proc = _slab(tmp_path / "x", "--mpi", "3", env={"PATH": str(tmp_path)})
+    assert proc.returncode == 2
+    assert proc.stderr.strip().startswith("error: --mpi 3: no mpiexec on PATH")
+    assert len(proc.stderr.strip().splitlines()) == 1
