@@ -48,11 +48,14 @@ def write_script(jobs, cases, table, out):
 
 
 def _ranks(job):
-    """The MPI ranks of a job's run (cli.mpi.case_ranks), 0 for one process."""
+    """The MPI ranks of a job's run (cli.mpi.case_ranks), 0 for one process or a case that
+    does not load (its array task says why when it runs, as without MPI)."""
     from cases.kinds import load_case
     from cli.mpi import case_ranks
-    case = load_case(job.case, [f"{k}={v}" for k, v in job.overrides.items()])
-    return case_ranks(case)
+    try:
+        return case_ranks(load_case(job.case, [f"{k}={v}" for k, v in job.overrides.items()]))
+    except ValueError:
+        return 0
 
 
 def run_task(jobs, out, task):

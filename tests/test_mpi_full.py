@@ -83,3 +83,11 @@ def test_mpi_without_mpiexec_is_one_line(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.strip().startswith("error: --mpi 3: no mpiexec on PATH")
     assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_a_slurm_array_of_mpi_runs_asks_for_their_ranks(tmp_path):
+    from cli.main import main
+    case = tmp_path / "full.toml"
+    case.write_text('[case]\nname = "full"\nkind = "slab"\n[slab]\nmodel = "full"\nmpi = 3\n')
+    assert main(["batch", str(case), "--slurm", "--out", str(tmp_path / "b")]) == 0
+    assert "#SBATCH --ntasks=3\n" in (tmp_path / "b" / "batch.sbatch").read_text()
