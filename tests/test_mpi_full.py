@@ -53,6 +53,10 @@ def test_three_ranks_give_the_serial_run_to_round_off(tmp_path):
     # seen), else the maps are equal
     da, db = (np.load(f / "damage.npz") for f in (serial, mpi))
     assert np.abs(da["damage"] - db["damage"]).max() <= 1e-12
+    # the two workers' slices meet under the impactor (x = 1.25 m): links across it broke
+    x, radius = da["positions"][:, 0], da["radius"]
+    boundary = np.abs(x - np.median(x)) < 2 * radius
+    assert da["damage"][-1][boundary].max() > 0
     # the links' energy: each link across the boundary counted once (by its id1's owner)
     ea, eb = (np.array(s["energy"]) for s in (sa, sb))
     assert np.abs(ea - eb).max() <= 1e-9 * ea[:, 1].max()
