@@ -165,3 +165,25 @@ def test_full_runs_with_probes_are_compared_at_the_coupled_zone_s_probes(tmp_pat
     probed(tmp_path / "d", "coupled", 1, {None: (2.2, 5.0)})
     assert main(["compare", str(tmp_path / "full"), str(tmp_path / "d"), "--out",
                  str(tmp_path / "cmp2")]) == 2
+
+
+def test_a_peak_at_the_window_s_last_sample_is_warned(tmp_path, capsys):
+    """SHAPE peaks mid-window: no warning; histories still rising when the window ends peak
+    at its last sample."""
+    member(tmp_path / "f", "full", 1, 1.0)
+    member(tmp_path / "c", "coupled", 1, 1.0)
+    assert main(["compare", str(tmp_path / "f"), str(tmp_path / "c"), "--out",
+                 str(tmp_path / "ok")]) == 0
+    assert json.loads((tmp_path / "ok" / "comparison.json").read_text())["warnings"] == []
+    rising = np.zeros((len(T), len(NAMES), 3))
+    rising[:, 0, 2] = -T / T[-1]              # under_impact: still sinking at the end
+    for run in ("f", "c"):
+        write_sensors(tmp_path / run / "sensors.csv", NAMES, T, rising)
+    capsys.readouterr()
+    assert main(["compare", str(tmp_path / "f"), str(tmp_path / "c"), "--out",
+                 str(tmp_path / "cmp")]) == 0
+    r = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+    assert r["sensors"]["under_impact"]["peak_is_last_sample"] == ["full", "coupled"]
+    assert r["sensors"]["de_zone"]["peak_is_last_sample"] == []     # zero: its peak is t = 0
+    assert len(r["warnings"]) == 1 and "are the last sample (t = 1 ms)" in r["warnings"][0]
+    assert "WARNING: seed 1: the peaks of under_impact (full, coupled)" in capsys.readouterr().out

@@ -162,6 +162,7 @@ def compare(full, coupled, out, verdict=False):
               "coupled": [str(r.folder) for r in coupled.values()], "pairs": pairs}
     if len(pairs) == 1 and len(full) == len(coupled) == 1:
         result.update(next(iter(pairs.values())))         # one pair: its figures at the top
+    result["warnings"] = last_sample_warnings(pairs)
     if verdict or len(full) >= verdicts.MIN_FULL_MEMBERS:
         result["ensemble"] = _ensemble(full, coupled, names, out)
     write_json(out / "comparison.json", result)
@@ -170,6 +171,21 @@ def compare(full, coupled, out, verdict=False):
                    coupled[seed])
     compare_page.write(result, full, coupled, out)
     return result
+
+
+def last_sample_warnings(pairs):
+    """One line per pair whose sensors peak at the compared window's last sample: their
+    'peaks' are where the window ends, not the response's."""
+    lines = []
+    for seed, p in pairs.items():
+        cut = [f"{name} ({', '.join(s['peak_is_last_sample'])})"
+               for name, s in p["sensors"].items() if s["peak_is_last_sample"]]
+        if cut:
+            lines.append(f"seed {seed}: the peaks of {', '.join(cut)} are the last sample "
+                         f"(t = {p['compared_until_s'] * 1e3:.3g} ms): the response was still "
+                         f"growing when the window ended; peak ratios and nRMS judge the "
+                         f"window, not the peak (run more --steps)")
+    return lines
 
 
 def pair(f, c):
@@ -186,7 +202,10 @@ def pair(f, c):
             "peak_time_full_s": t[np.argmax(np.abs(fz))],
             "peak_time_coupled_s": t[np.argmax(np.abs(cz))],
             "peak_ratio": _one(ensemble.ratio(peak_c, peak_f)),
-            "nrms": _one(ensemble.nrms(cz[:, None], fz[:, None]))}
+            "nrms": _one(ensemble.nrms(cz[:, None], fz[:, None])),
+            # a peak at the window's last sample is where the window cut a growing response
+            "peak_is_last_sample": [side for side, z in (("full", fz), ("coupled", cz))
+                                    if np.argmax(np.abs(z)) == len(t) - 1]}
     damage = _pair_damage(f, c)
     sf, sc = f.summary, c.summary
     return {

@@ -49,6 +49,8 @@ def run(args):
                   f"(largest), full scatter {_f(v['full_leave_one_out_max'])}: "
                   f"{verdict_text(v)}")
         print(_overall(r))
+    for line in r["warnings"]:
+        print(f"WARNING: {line}")
     print(f"results in {out}; the page: {out / 'report.html'}")
     return 0
 
