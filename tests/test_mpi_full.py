@@ -95,3 +95,16 @@ def test_a_slurm_array_of_mpi_runs_asks_for_their_ranks(tmp_path):
     case.write_text('[case]\nname = "full"\nkind = "slab"\n[slab]\nmodel = "full"\nmpi = 3\n')
     assert main(["batch", str(case), "--slurm", "--out", str(tmp_path / "b")]) == 0
     assert "#SBATCH --ntasks=3\n" in (tmp_path / "b" / "batch.sbatch").read_text()
+
+
+def test_an_ensemble_runs_each_member_on_its_own_ranks(tmp_path):
+    """Each member starts its own mpiexec (from a parent that started MPI itself: the members
+    must not inherit what MPI_Init set in its environment)."""
+    cmd = [sys.executable, "-m", "cli", "slab", "--model", "full", "--scale", "small",
+           "--steps", "20", "--mpi", "2", "--seeds", "1,2", "--quiet", "--out",
+           str(tmp_path / "e")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    for seed in (1, 2):
+        s = json.loads((tmp_path / "e" / f"seed-{seed}" / "summary.json").read_text())
+        assert s["spec"]["mpi"] == 2 and s["spec"]["seed"] == seed and s["steps"] == 20
