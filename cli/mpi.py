@@ -45,8 +45,10 @@ def case_ranks(case):
     if case.kind != "slab":
         return 0
     from cases.slab.casefile import spec
-    ranks = spec(case).mpi
-    if ranks and case["slab"]["model"] != "full":
-        raise ValueError(f"{case.path}: slab.mpi = {ranks} runs the full model on YADE's MPI: "
-                         f"not slab.model = {case['slab']['model']!r}")
-    return ranks
+    from cases.slab.model import check_ranks
+    slab = spec(case)
+    try:
+        check_ranks(slab, case["slab"]["model"])
+    except ValueError as e:
+        raise ValueError(f"{case.path}: {e}") from None
+    return slab.mpi

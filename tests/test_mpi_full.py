@@ -78,8 +78,9 @@ def test_mpi_with_the_coupled_model_is_one_line(tmp_path):
            str(tmp_path / "x")]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
-    assert proc.stderr.strip() == ("error: --mpi 3 runs the full model on YADE's MPI: not "
-                                   "--model coupled (its FE runs under mpirun, docs/mpi.md)")
+    assert proc.stderr.strip() == ("error: slab: mpi = 3 runs the full model on YADE's MPI, "
+                                   "not the coupled one (its FE runs under mpirun: "
+                                   "docs/mpi.md)")
 
 
 def test_mpi_without_mpiexec_is_one_line(tmp_path):

@@ -143,15 +143,20 @@ class SlabScene:
         RankZeroScene(MPI.COMM_WORLD).split(owners(x, self.spec.mpi - 1), radius)
 
 
+def check_ranks(spec, model):
+    """spec.mpi (YADE's MPI) is for the full model only."""
+    if spec.mpi and model != "full":
+        raise ValueError(f"slab: mpi = {spec.mpi} runs the full model on YADE's MPI, not the "
+                         f"{model} one (its FE runs under mpirun: docs/mpi.md)")
+
+
 def description(spec, model, grid=None, dt=None):
     """The builder's description of the slab's `model` (full or coupled), with the DE zone
     of `grid` (default: the spec's fixed zone, model_grid), and the time step `dt` (default: the
     spec's dt_safety × the critical step)."""
     if model not in MODELS:
         raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
-    if spec.mpi and model != "full":
-        raise ValueError(f"slab: mpi = {spec.mpi} runs the full model on YADE's MPI; the "
-                         f"coupled model runs without it (or its FE under mpirun)")
+    check_ranks(spec, model)
     if spec.elastic_outside and model != "full":
         raise ValueError("elastic_outside applies to the full model only (the coupled "
                          "model has FE outside its DE zone)")

@@ -57,4 +57,3 @@ def run(args):
           f"FE nodes, {s['n_bridging_spheres']} bridging spheres, {s['steps']} steps of "
           f"{s['dt']:.3g} s, {s['s_per_step'] * 1e3:.2f} ms/step; results in {out}")
     return 0
-

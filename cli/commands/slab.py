@@ -40,9 +40,7 @@ def run(args):
             raise ValueError("give either --seed or --seeds, not both")
         cells = _zone_cells(args.zone_from) if args.zone_from else None
         spec, model = spec_from_args(slab.SlabSpec, args, zone_cells=cells), args.model
-        if spec.mpi and model != "full":
-            raise ValueError(f"--mpi {spec.mpi} runs the full model on YADE's MPI: not "
-                             f"--model {model} (its FE runs under mpirun, docs/mpi.md)")
+        slab.model.check_ranks(spec, model)     # before mpiexec starts
         if model == "full" and spec.zone != "box":
             raise ValueError(f"--zone {spec.zone} finds the DE zone of a coupled model: the full "
                              f"model has none (run it with --model coupled)")
@@ -78,7 +76,7 @@ def run(args):
             serve(slab.fe_model(spec, grid, slab.fe_weight(spec, grid)))
             return 0
     from yade_side import import_yade
-    import_yade(args.threads or (1 if spec.mpi else None))
+    import_yade(args.threads)
     if args.resume:
         out, start = Path(args.resume), None
         folder.resume_folder(out)
