@@ -34,10 +34,24 @@ def _mpiexec(launcher, ranks, args):
     import subprocess
     import sys
     # each rank on one YADE thread unless --threads says otherwise; root may run it (containers)
-    env = dict(os.environ, OMP_NUM_THREADS=str(args.threads or 1),
+    env = dict(environment_without_mpi(), OMP_NUM_THREADS=str(args.threads or 1),
                OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     return subprocess.call([launcher, "--oversubscribe", "-n", str(ranks), sys.executable,
                             "-m", "cli", *args.argv], env=env)
+
+
+# what Open MPI's MPI_Init sets in a process's environment: a child that inherits it joins
+# that process's MPI, and an mpiexec it starts fails without a word (exit 1)
+_MPI_STATE = ("PMIX_", "ORTE_", "OMPI_MCA_ess", "OMPI_MCA_pmix", "OMPI_MCA_orte_", "OMPI_APP_",
+              "OMPI_COMM_WORLD_", "OMPI_UNIVERSE_", "OMPI_FIRST_", "OMPI_FILE_")
+
+
+def environment_without_mpi():
+    """The environment for a process that starts MPI of its own: os.environ (what MPI_Init
+    sets in C in this process stays out of it) less the MPI state it inherited from a parent
+    that had started MPI."""
+    import os
+    return {k: v for k, v in os.environ.items() if not k.startswith(_MPI_STATE)}
 
 
 def case_ranks(case):

@@ -99,8 +99,11 @@ def test_a_slurm_array_of_mpi_runs_asks_for_their_ranks(tmp_path):
 
 
 def test_an_ensemble_runs_each_member_on_its_own_ranks(tmp_path):
-    """Each member starts its own mpiexec (from a parent that started MPI itself: the members
-    must not inherit what MPI_Init set in its environment)."""
+    """Each member starts its own mpiexec, from an ensemble process that started MPI itself
+    and (as under pytest-xdist) inherited the MPI state of a parent that had: neither may reach
+    the members' mpiexec, which would fail."""
+    from mpi4py import MPI       # this process's MPI state, inherited by the one below
+    assert MPI.COMM_WORLD.size == 1
     cmd = [sys.executable, "-m", "cli", "slab", "--model", "full", "--scale", "small",
            "--steps", "20", "--mpi", "2", "--seeds", "1,2", "--quiet", "--out",
            str(tmp_path / "e")]

@@ -134,12 +134,12 @@ def _ensemble(model, args, spec):
     a time (default: one per core, or per spec.mpi - 1 cores: each member's workers). Members
     run on one YADE thread unless --threads is given, so each is bit-identical to the same
     seed run alone with --threads 1."""
-    import os
     import signal
     import subprocess
     import sys
     import threading
     from concurrent.futures import ThreadPoolExecutor
+    from cli.mpi import environment_without_mpi
     from orchestrator.run.folder import prepare_out
     from orchestrator.run.restart import Stopped
     from yade_side import cores
@@ -155,9 +155,7 @@ def _ensemble(model, args, spec):
         with lock:
             if stopped:                     # asked to stop: start no more members
                 return None
-            # Python's copy of the environment: not what MPI_Init set in C here (a member's
-            # own mpiexec would try to join this process's MPI and fail)
-            proc = subprocess.Popen(cmd, env=dict(os.environ))
+            proc = subprocess.Popen(cmd, env=environment_without_mpi())
             running.add(proc)
         code = proc.wait()
         with lock:
