@@ -30,14 +30,28 @@ def on_ranks(ranks, args):
 
 
 def _mpiexec(launcher, ranks, args):
-    import os
+    import signal
     import subprocess
     import sys
     # each rank on one YADE thread unless --threads says otherwise; root may run it (containers)
     env = dict(environment_without_mpi(), OMP_NUM_THREADS=str(args.threads or 1),
                OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    return subprocess.call([launcher, "--oversubscribe", "-n", str(ranks), sys.executable,
-                            "-m", "cli", *args.argv], env=env)
+    proc = subprocess.Popen([launcher, "--oversubscribe", "-n", str(ranks), sys.executable,
+                             "-m", "cli", *args.argv], env=env)
+    # a stop asked of this process goes to the run (mpiexec passes it on to rank 0, which
+    # stops; the workers ignore it), and its exit code says so as a one-process run's would
+    asked = []
+
+    def forward(signum, _frame):
+        asked.append(signum)
+        proc.send_signal(signum)
+    previous = {s: signal.signal(s, forward) for s in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        code = proc.wait()
+        return 128 + asked[0] if asked and code else code
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 # what Open MPI's MPI_Init sets in a process's environment: a child that inherits it joins

@@ -112,3 +112,23 @@ def test_an_ensemble_runs_each_member_on_its_own_ranks(tmp_path):
     for seed in (1, 2):
         s = json.loads((tmp_path / "e" / f"seed-{seed}" / "summary.json").read_text())
         assert s["spec"]["mpi"] == 2 and s["spec"]["seed"] == seed and s["steps"] == 20
+
+
+def test_a_stopped_mpi_run_says_so_in_one_line(tmp_path):
+    """SIGTERM to the command reaches rank 0 (the workers ignore it), which ends its step and
+    says why there is nothing to resume; exit code 143 as for a one-process run."""
+    import signal
+    import time
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "cli", "slab", "--model", "full", "--scale", "small",
+           "--steps", "5000", "--check-every", "10", "--mpi", "2", "--quiet", "--out", str(out)]
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while not ((out / "run.log").is_file() and "step 20," in (out / "run.log").read_text()):
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 143
+    assert err.strip().splitlines()[-1].startswith("stopped: stopped at step ")
+    assert err.strip().endswith("no checkpoint (the YADE scene is split over MPI ranks)")

@@ -111,7 +111,11 @@ class RankZeroScene:
     # --- the workers ---------------------------------------------------------------------------
     def serve(self):
         """Ranks > 0: take part in rank 0's calls until it stops; a failure here stops every
-        rank (rank 0 would wait for this one for ever)."""
+        rank (rank 0 would wait for this one for ever). A stop (SIGTERM, Ctrl-C) is rank 0's
+        to handle: it ends its step, says why, and releases the workers."""
+        import signal
+        for s in (signal.SIGTERM, signal.SIGINT):
+            signal.signal(s, signal.SIG_IGN)
         try:
             while True:
                 name, args = self._receive()
