@@ -132,3 +132,10 @@ def test_a_stopped_mpi_run_says_so_in_one_line(tmp_path):
     assert proc.returncode == 143
     assert err.strip().splitlines()[-1].startswith("stopped: stopped at step ")
     assert err.strip().endswith("no checkpoint (the YADE scene is split over MPI ranks)")
+
+
+def test_a_model_built_for_more_ranks_than_the_process_has_is_refused():
+    from cases.slab import SlabModel, SlabSpec
+    with pytest.raises(ValueError, match=r"mpi = 3 runs on that many MPI ranks, this process "
+                                         r"has 1"):
+        SlabModel(SlabSpec(mpi=3, steps=10), "full")

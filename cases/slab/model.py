@@ -137,6 +137,10 @@ class SlabScene:
         count; the split's first step makes the links."""
         from mpi4py import MPI
         from yade_side.distributed import RankZeroScene, owners
+        if MPI.COMM_WORLD.size != self.spec.mpi:
+            raise ValueError(f"slab: mpi = {self.spec.mpi} runs on that many MPI ranks, this "
+                             f"process has {MPI.COMM_WORLD.size} (the slab and run commands "
+                             f"start mpiexec themselves)")
         p = self.packs
         x = np.concatenate([p.slab_centres[self.slab_index, 0], p.impactor_centres[:, 0]])
         radius = min(p.slab_radii.min(), p.impactor_radii.min())
