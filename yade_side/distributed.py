@@ -4,10 +4,10 @@ the run, the other ranks (workers) own its bodies and step them.
 Rank 0 gives each body to a worker and the first step splits the scene (mpy sends it to the
 workers). Rank 0 keeps inert copies of the bodies (their masses and radii); once the scene is
 split, `BodySet` reads and writes and `LinkDamage`'s walks go to the owners through
-`remote()`: every call of rank 0 is broadcast to the workers, which run `serve()` and take part.
+`remote()`: every call of rank 0 is sent to the workers, which run `serve()` and take part.
 
-What yade.mpy needs of the engines (each measured on a CPM prism notched at the subdomains'
-boundary, docs/mpi.md):
+What yade.mpy needs to carry CPM links across the subdomains (each found by a run that gave a
+wrong answer without it, docs/mpi.md):
 1. the collider labelled `collider` (mpy's parallel collision reads that name), or links across
    the boundary are never made;
 2. the cohesive links made by the first step after the split: links made before are not
@@ -16,7 +16,9 @@ boundary, docs/mpi.md):
    at the value mpy sets after a parallel collision, or rank 0 asks for a collision detection
    at every step (twice the cost);
 4. bounds that keep covering linked pairs, so that a link's two spheres stay in each other's
-   subdomain: the spheres' bounds keep the link-making enlargement (1.5).
+   subdomain: the spheres' bounds keep the link-making enlargement (1.5);
+5. states written between steps sent to the ranks that mirror those bodies, and a new parallel
+   collision (`put`).
 A link belongs to the rank that owns its first body (id1): each is counted once.
 """
 import atexit
@@ -106,7 +108,6 @@ class RankZeroScene:
     def elastic_energy(self):
         """Law2_ScGeom_CpmPhys_Cpm.elasticEnergy() of the whole scene, each link once."""
         return self._call("elastic_energy")
-
 
     # --- the workers ---------------------------------------------------------------------------
     def serve(self):
