@@ -90,3 +90,16 @@ def test_rule_meets_the_goal_at_the_hardest_grid_points(ratio, dt_safety):
 @pytest.mark.parametrize("ratio", GRID_RATIOS)
 def test_rule_meets_the_goal_on_the_grid(ratio, dt_safety):
     check_goal(ratio, dt_safety)
+
+
+def test_the_slab_band_table_is_the_rule_applied_to_the_slab_defaults():
+    """Each scale's default band misses the 1D goal (their r is the rule's best at that n_b),
+    and the rule's wider band meets it."""
+    from cases.slab import SlabSpec
+    from cases.slab.band import band_table
+    from orchestrator.coupling.relaxation import Prediction, margin
+    for scale, ratio, nb, r, att, lf, rule_nb, rule_r in band_table():
+        s = SlabSpec(scale=scale)
+        assert (nb, r) == (s.layers, s.relaxation)
+        assert margin(att, lf) < 1 and rule_nb > nb
+        assert margin(*Prediction(ratio, rule_nb, s.variant, s.dt_safety, s.weighting)(rule_r)) > 1
