@@ -145,6 +145,7 @@ class Model:
     def __init__(self, parts):
         from yade_side.bulk import BodySet
         from yade_side.damage import LinkDamage
+        from yade_side.distributed import remote
         self.parts = p = parts
         self.O, self.fe, self.bridging, self.stepper = p.O, p.fe, p.bridging, p.stepper
         self.dt, self.critical, self.relaxation = p.dt, p.critical, p.relaxation
@@ -161,7 +162,6 @@ class Model:
         self.sensor_order = None
         self._sensor_spheres, self._sensor_nodes = BodySet([]), np.empty(0, int)
         self._seconds = {"yade": 0.0, "fe": 0.0, "coupling": 0.0}
-        from yade_side.distributed import remote
         self._de_step = self.O.step if remote() is None else remote().step
 
     # --- stepping ----------------------------------------------------------------------------
