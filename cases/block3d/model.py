@@ -165,10 +165,6 @@ class WeightedEnergy:
     def link_energy(self):
         """β-weighted CPM link energy at the positions the last step started from (the law's
         forces are those of that configuration)."""
-        excess = np.array([_cpm_link_energy(i.phys) for i in self._links])
+        from yade_side.scene import link_energy
+        excess = np.array([link_energy(i.phys) for i in self._links])
         return self._w0 * self.b.law.elasticEnergy() + float(self._excess @ excess)
-
-
-def _cpm_link_energy(phys):
-    # what Law2_ScGeom_CpmPhys_Cpm.elasticEnergy() sums per link
-    return 0.5 * (phys.normalForce.squaredNorm() / phys.kn + phys.shearForce.squaredNorm() / phys.ks)
