@@ -37,6 +37,22 @@ def atomic(path):
         raise
 
 
+def cache_folder(name):
+    """The folder `name` of the project's cache, made if missing: under $DEM_FEM_CACHE, else
+    (unset or empty) ~/.cache/yade-fenicsx-coupling; never the working folder. ValueError (one
+    line) if it cannot be made or written."""
+    root = Path(os.environ.get("DEM_FEM_CACHE") or Path.home() / ".cache" / "yade-fenicsx-coupling")
+    path = root / name
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ValueError(f"cache folder {path} (DEM_FEM_CACHE) cannot be made: "
+                         f"{err.strerror}") from None
+    if not os.access(path, os.W_OK):
+        raise ValueError(f"cache folder {path} (DEM_FEM_CACHE) is not writable")
+    return path
+
+
 def read_text(path, what="file"):
     """The UTF-8 text of an input file; ValueError naming the file, the byte, its position
     (line, column) when it is not UTF-8, FileNotFoundError when it is missing."""

@@ -1,4 +1,5 @@
-"""A concrete damage law with crack closure, regularised by the crack band: pure numpy, per cell.
+"""A concrete damage law with crack closure, regularised by the crack band, per cell (its loops
+over the cells in C: fenicsx_side.kernels).
 
 - Two damages act on the two signs of the effective stress σ̄ = C : ε (the spectral split of
   Faria, Oliver & Cervera, IJSS 35, 1998, 1533-1558; Wu, Li & Faria, IJSS 43, 2006, 583-612;
@@ -47,8 +48,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-# positive_part: eigenvalues closer than this × the largest go to LAPACK (see there)
-NEAR_ROOT = 1e-3
+from fenicsx_side.kernels import contiguous, library
+
 # Symmetric tensors are handled as their six components, component-major (6, n): xx, yy, zz,
 # yz, xz, xy (tensor components, not engineering shears), so that the law's algebra runs on
 # whole contiguous arrays of cells.
@@ -104,29 +105,23 @@ class ConcreteDamage:
 
     def tension_strain(self, eps, floor=0.0):
         """ε_t = ⟨σ̄₁⟩ / E of strains eps (6, n). The principal strains are computed only where
-        ε_t can pass `floor` (a scalar or per-cell array: what it must pass to matter):
-        elsewhere the result is a bound below `floor`."""
+        ε_t can pass `floor` (a scalar or per-cell array: what it must pass to matter), by the
+        bound ε₁ ≤ tr ε / 3 + √(2/3) |dev ε|: elsewhere the result is that bound (≥ 0), below
+        `floor`."""
         nu = self.poisson
-        lam_e = nu / ((1 + nu) * (1 - 2 * nu))          # λ / E, and 2μ / E = 1 / (1 + ν)
-        i1 = trace(eps)
-        dev2 = contract(eps, eps) - i1 * i1 / 3          # 2 J₂
-        # ε₁ ≤ |ε|: the eigenvalues are needed only where this bound passes floor
-        bound = lam_e * i1 + np.sqrt(np.maximum(dev2, 0.0) + i1 * i1 / 3) / (1 + nu)
-        tension = np.maximum(bound, 0.0)
-        near = np.flatnonzero(bound > floor)
-        if near.size:
-            e1 = eigenvalues(eps[:, near])[0]
-            tension[near] = np.maximum(lam_e * i1[near] + e1 / (1 + nu), 0.0)
-        return tension
+        eps = contiguous(eps)
+        n = eps.shape[1]
+        floor = np.ascontiguousarray(np.broadcast_to(np.asarray(floor, float), (n,)))
+        out = np.empty(n)
+        library().tension_strain(n, eps, floor, nu / ((1 + nu) * (1 - 2 * nu)), nu, out)
+        return out
 
     def compression_strain(self, eps):
         """ε_c of strains eps (6, n): de Vree's measure where tr ε < 0, else 0."""
-        nu, k = self.poisson, self.strength_ratio
-        i1 = trace(eps)
-        j2 = 0.5 * (contract(eps, eps) - i1 * i1 / 3)
-        a = (k - 1) * i1 / (1 - 2 * nu)
-        return np.where(i1 < 0, (a + np.sqrt(a * a + 12 * k * np.maximum(j2, 0.0)
-                                             / (1 + nu) ** 2)) / (2 * k), 0.0)
+        eps = contiguous(eps)
+        out = np.empty(eps.shape[1])
+        library().compression_strain(eps.shape[1], eps, self.strength_ratio, self.poisson, out)
+        return out
 
     def softening_strain(self, h):
         """ε_f in tension of elements of width h (array, m); ValueError if one is too wide."""
@@ -148,11 +143,9 @@ class ConcreteDamage:
     def damage(self, kappa, eps_f):
         """D(κ) for histories kappa and softening strains eps_f (arrays of one shape)."""
         kappa = np.asarray(kappa, float)
-        k0 = self.kappa0
-        above = kappa > k0
-        out = np.zeros_like(kappa)
-        kk, ef = kappa[above], np.broadcast_to(eps_f, kappa.shape)[above]
-        out[above] = 1.0 - (k0 / kk) * np.exp(-(kk - k0) / ef)
+        eps_f = np.ascontiguousarray(np.broadcast_to(np.asarray(eps_f, float), kappa.shape))
+        out = np.empty(kappa.shape)
+        library().damage(kappa.size, np.ascontiguousarray(kappa), eps_f, self.kappa0, out)
         return out
 
     def effective_stress(self, eps):
@@ -202,41 +195,21 @@ def contract(u, v):
                                                           + u[5] * v[5])
 
 
-def square(v):
-    """The components of v · v."""
-    xx, yy, zz, yz, xz, xy = v
-    return np.stack([xx * xx + xy * xy + xz * xz, xy * xy + yy * yy + yz * yz,
-                     xz * xz + yz * yz + zz * zz, xy * xz + yy * yz + yz * zz,
-                     xx * xz + xy * yz + xz * zz, xx * xy + xy * yy + xz * yz])
-
-
 def positive_part(v):
     """The positive spectral parts Σ ⟨λ_i⟩ n_i⊗n_i of symmetric tensors v (6, n).
 
-    With the eigenvalues λ₁ ≥ λ₂ ≥ λ₃ in closed form (`eigenvalues`): v itself where λ₃ ≥ 0,
+    With the eigenvalues λ₁ ≥ λ₂ ≥ λ₃ in closed form (the trigonometric solution of the
+    characteristic cubic: Smith, CACM 4, 1961, 168): v itself where λ₃ ≥ 0,
     0 where λ₁ ≤ 0; with one positive, λ₁ P₁; with two, v − λ₃ P₃; the projector
     P_k = (v − λ_i 1)(v − λ_j 1) / ((λ_k − λ_i)(λ_k − λ_j)) (Sylvester). With mixed signs the
     denominators are at least |λ_k| and λ₁ − λ₃ ≥ max |λ|, so the error is that of the
     eigenvalues, machine ε |v|² / gap for a root of the characteristic cubic. Where two
-    eigenvalues come within NEAR_ROOT |v| of each other (√ε |v| accurate only: a uniaxial
-    stress) and the signs are not all one, LAPACK's eigenvectors."""
-    lam = eigenvalues(v)
-    tol = NEAR_ROOT * np.abs(lam).max(axis=0)
-    out = np.where(lam[2] >= 0, v, 0.0)
-    near = np.minimum(lam[0] - lam[1], lam[1] - lam[2]) <= tol
-    lapack = np.flatnonzero(near & (lam[0] > -tol) & (lam[2] < tol))
-    if lapack.size:
-        w, vec = np.linalg.eigh(tensors(v[:, lapack]))
-        out[:, lapack] = components(np.einsum("cak,ck,cbk->cab", vec, np.maximum(w, 0.0), vec))
-    for rows, k in ((np.flatnonzero(~near & (lam[0] > 0) & (lam[1] <= 0)), 0),
-                    (np.flatnonzero(~near & (lam[1] > 0) & (lam[2] < 0)), 2)):
-        if rows.size:
-            m, l = v[:, rows], lam[:, rows]
-            i, j = [x for x in range(3) if x != k]
-            product = square(m) - (l[i] + l[j]) * m    # (v − λ_i 1)(v − λ_j 1)
-            product[:3] += l[i] * l[j]
-            part = l[k] / ((l[k] - l[i]) * (l[k] - l[j])) * product
-            out[:, rows] = part if k == 0 else m - part
+    eigenvalues come within 10⁻³ |v| of each other (√ε |v| accurate only: a uniaxial
+    stress) and the signs are not all one, Jacobi's method (backward stable:
+    the projection on the positive tensors does not amplify its rounding)."""
+    v = contiguous(v)
+    out = np.empty_like(v)
+    library().positive_part(v.shape[1], v, out)
     return out
 
 
@@ -264,21 +237,6 @@ def fit_compressive_fracture_energy(strain, stress, length, specimen_young, youn
     log = np.log(fc / sp)
     delta = float(log @ ex / (log @ log))
     return width * fc * fc / (2 * young) + fc * delta, delta, int(sp.size)
-
-
-def eigenvalues(v):
-    """The eigenvalues λ₁ ≥ λ₂ ≥ λ₃ (3, n) of symmetric tensors v (6, n), in closed form (the
-    trigonometric solution of the characteristic cubic: Smith, CACM 4, 1961, 168)."""
-    q = trace(v) / 3
-    b = v.copy()
-    b[:3] -= q
-    p = np.sqrt(contract(b, b) / 6)
-    xx, yy, zz, yz, xz, xy = b / np.where(p > 0, p, 1.0)
-    r = (xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz)) / 2
-    phi = np.arccos(np.clip(r, -1.0, 1.0)) / 3
-    largest = q + 2 * p * np.cos(phi)
-    smallest = q + 2 * p * np.cos(phi + 2 * np.pi / 3)
-    return np.stack([largest, 3 * q - largest - smallest, smallest])
 
 
 def band_width(gradients, direction):

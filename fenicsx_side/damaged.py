@@ -4,10 +4,10 @@ cell's stiffness to its average strain on the two signs of the effective stress 
 closes in compression).
 
 Cell stress on the mean strain ε̄_c: σ_c = σ̄_c − D_t σ̄⁺_c − D_c σ̄⁻_c, σ̄ = C : ε̄. The internal
-force is f = K u − Σ_c B̄_cᵀ V_c (D_t σ̄⁺ + D_c σ̄⁻)_c: PETSc's elastic mat-vec, one sparse
-mat-vec for the cells' mean strains B̄ u, numpy arrays of the six strain components over the
-cells in between (fenicsx_side.damage_law's component-major layout), and the damaged cells'
-lost forces gathered cell by cell.
+force is f = K u − Σ_c B̄_cᵀ V_c (D_t σ̄⁺ + D_c σ̄⁻)_c: PETSc's elastic mat-vec; the cells' mean
+strains B̄ u, the law's eigenvalues and the damaged cells' lost forces in one C loop each
+(fenicsx_side.kernels); numpy arrays of the six strain components over the cells in between
+(fenicsx_side.damage_law's component-major layout).
 A cell's stiffness is its one-point part V B̄ᵀ C B̄ plus what the quadrature adds, K_c − V B̄ᵀ C B̄
 (positive semi-definite: the strain's variation inside the cell, the cell's own bending). The
 law's split takes from the first; the cell's damage D = max(D_t, D_c) scales the second, so
@@ -15,8 +15,8 @@ that a cracked cell cannot go on carrying a bending moment through it (kept whol
 18 % of the small-scale slab strip's bending energy with every cell at D = 1). Its force
 −D K_rest,c u_c runs over the damaged cells only. A damaged cell's lost force is thus
 (D_t σ̄⁺ + D_c σ̄⁻)_c V B̄_c + D u_c K_rest,c: cells of one shape and weighting (the unweighted
-cells of a structured mesh) share V B̄ and K_rest, applied to the class in two matrix
-products; any other cell gets its own when it first damages.
+cells of a structured mesh) share V B̄ and K_rest (K_rest u_c is one matrix product per
+class); any other cell gets its own when it first damages.
 Uniform strains, and with them the law's curves in a cell, are exact. With a weight α (the
 consistent bridging weighting) the means are α's, as in K, in the cells it touches. The
 strain energy is ½ u·f; the energy dissipated is Σ_c V_c (½ σ̄⁺:ε̄ ΔD_t + ½ σ̄⁻:ε̄ ΔD_c)
@@ -28,8 +28,9 @@ import basix
 import numpy as np
 import scipy.sparse as sp
 
-from fenicsx_side.damage_law import (PAIRS, band_width, components, contract, positive_part,
+from fenicsx_side.damage_law import (PAIRS, band_width, components, positive_part,
                                       tensors)
+from fenicsx_side.kernels import library
 from fenicsx_side.model import ElasticModel
 
 _BASIX_CELL = {4: basix.CellType.tetrahedron, 8: basix.CellType.hexahedron}
@@ -68,7 +69,8 @@ class DamageModel(ElasticModel):
         self.damage_t, self.damage_c, self.damage = np.zeros(n), np.zeros(n), np.zeros(n)
         self.dissipated = 0.0
         self._force = np.zeros(self.ndof)
-        self._cell_dofs = (3 * self.cell_nodes[:, :, None] + np.arange(3)).reshape(n, -1)
+        self._nodes64 = np.ascontiguousarray(self.cell_nodes, dtype=np.int64)
+        self._cell_dofs = (3 * self.cell_nodes[:, :, None] + np.arange(3, dtype=np.int64)).reshape(n, -1)
         dofs = self._cell_dofs.shape[1]
         self._own_ops = (np.zeros((0, 6, dofs)), np.zeros((0, dofs, dofs)))  # cells of their own
         self._own_row = np.full(n, -1)          # each cell's row there (-1: none yet)
@@ -88,7 +90,7 @@ class DamageModel(ElasticModel):
         self.cell_volume = dv.sum(axis=1)
         self.cell_centres = xc.mean(axis=1)
         mean = lambda v: np.einsum("cq,cqia->cia", v, grad) / v.sum(axis=1)[:, None, None]
-        self._strain = self._strain_operator(mean(dv))
+        self._mean_grad = np.ascontiguousarray(mean(dv))   # the law's strains (kernels)
         dv_weighted, self._weighted_cells = dv, np.arange(0)
         alpha_nodes = None
         if weight is not None:
@@ -180,13 +182,13 @@ class DamageModel(ElasticModel):
 
     def _groups(self, hit):
         """The damaged cells `hit` (in class order) in groups of one class or their own:
-        [(slice of hit, force operator, higher-order matrix)], shared (2-D) or per cell."""
+        [(slice of hit, higher-order matrix)], shared (2-D) or per cell; the cells of their
+        own get their operators (`_own_operators`), which the lost forces read."""
         bounds = np.searchsorted(self._class_of[hit], np.arange(-1, len(self._class_ops[1])),
                                  side="right")
-        groups = [(slice(0, bounds[0]),) + self._own_operators(hit[:bounds[0]])]
+        groups = [(slice(0, bounds[0]), self._own_operators(hit[:bounds[0]])[1])]
         for c in np.flatnonzero(np.diff(bounds)):
-            groups.append((slice(bounds[c], bounds[c + 1]), self._class_ops[0][c],
-                           self._class_ops[1][c]))
+            groups.append((slice(bounds[c], bounds[c + 1]), self._class_ops[1][c]))
         return groups
 
     def _strain_operator(self, mean_grad, cells=None):
@@ -209,43 +211,40 @@ class DamageModel(ElasticModel):
     # --- damage -------------------------------------------------------------------------------
     def cell_strain(self):
         """The cells' mean strains (6, n_cells) of the current u."""
-        return (self._strain @ self._u).reshape(6, -1)
+        eps = np.empty((6, len(self.cell_nodes)))
+        library().cell_strains(len(self.cell_nodes), self.cell_nodes.shape[1], self._nodes64,
+                               self._mean_grad, self._u, eps)
+        return eps
 
-    def update_damage(self, eps=None):
-        """κ, κ_c, their ε_f and the damages from the current u (eps: its cell strains, if
-        already known), and the energy the increments dissipate. Returns the split of the
-        damaged cells (`split`), which the internal force of the same u reuses."""
-        law = self.law
-        eps = self.cell_strain() if eps is None else eps
-        floor_t = np.maximum(self.kappa, law.kappa0)
-        eq_t = law.tension_strain(eps, floor_t)
-        eq_c = law.compression_strain(eps)
-        grow_t = np.flatnonzero(eq_t > floor_t)
-        grow_c = np.flatnonzero(eq_c > np.maximum(self.kappa_c, law.kappa0))
-        if grow_t.size == 0 and grow_c.size == 0:
+    def update_damage(self):
+        """κ, κ_c, their ε_f and the damages from the current u, and the energy the increments
+        dissipate. Returns the split of the damaged cells (`split`), which the internal force
+        of the same u reuses."""
+        law, n, nu = self.law, len(self.cell_nodes), self.law.poisson
+        eps = self.cell_strain()
+        grow, flags = np.empty(n, np.int64), np.empty(n, np.int8)
+        count = library().screen(n, eps, self.kappa, self.kappa_c, law.kappa0,
+                                 nu / ((1 + nu) * (1 - 2 * nu)), nu, law.strength_ratio,
+                                 np.empty(n), grow, flags)
+        if count == 0:
             return self.split(eps)
-        for grow, eq, kappa, eps_f, softening, axis in (
-                (grow_t, eq_t, self.kappa, self.eps_f, law.softening_strain, -1),
-                (grow_c, eq_c, self.kappa_c, self.eps_fc, law.compressive_softening_strain, 0)):
-            start = grow[np.isnan(eps_f[grow])]
+        grow, flags = grow[:count], flags[:count]
+        for bit, eps_f, softening, axis in ((1, self.eps_f, law.softening_strain, -1),
+                                            (2, self.eps_fc, law.compressive_softening_strain, 0)):
+            cells = grow[(flags & bit) > 0]
+            start = cells[np.isnan(eps_f[cells])]
             if start.size:     # band width along the principal strain that starts it
                 direction = np.linalg.eigh(tensors(eps[:, start]))[1][:, :, axis]
                 eps_f[start] = softening(band_width(self._centre_grad[start], direction))
-            kappa[grow] = eq[grow]
-        grow = np.union1d(grow_t, grow_c)
-        new_t = law.damage(self.kappa[grow], self.eps_f[grow])
-        new_c = law.damage(self.kappa_c[grow], self.eps_fc[grow])
-        step_t, step_c = new_t - self.damage_t[grow], new_c - self.damage_c[grow]
-        step = np.maximum(new_t, new_c) - self.damage[grow]
-        self.damage_t[grow], self.damage_c[grow] = new_t, new_c
-        self.damage[grow] = np.maximum(new_t, new_c)
+        step = np.empty((3, count))
+        library().grow_damage(count, grow, self.kappa, self.eps_f, self.kappa_c, self.eps_fc,
+                              law.kappa0, self.damage_t, self.damage_c, self.damage, step)
         split = self.split(eps)
         hit, w, sig, pos, (u_c, rest_force, _) = split
         at = self._position[grow]             # grow ⊂ hit: a growing damage is > 0
-        self.dissipated += 0.5 * float(step @ np.einsum("ci,ci->c", u_c[at], rest_force[at]))
-        y_t = 0.5 * contract(pos[:, at], w[:, at])
-        y_c = 0.5 * contract(sig[:, at] - pos[:, at], w[:, at])
-        self.dissipated += float(self._weighted_volume[grow] @ (y_t * step_t + y_c * step_c))
+        self.dissipated += library().dissipation(count, hit.size, u_c.shape[1], grow, at,
+                                                 step[2], step[0], step[1], u_c, rest_force, w,
+                                                 sig, pos, self._weighted_volume)
         return split
 
     def split(self, eps=None):
@@ -257,18 +256,20 @@ class DamageModel(ElasticModel):
         if hit.size == 0:
             return hit, None, None, None, (None, None, None)
         self._position[hit] = np.arange(hit.size)
-        groups = self._groups(hit)
-        u_c = self._u[self._cell_dofs[hit]]
-        rest_force = np.empty_like(u_c)
-        for rows, _, rest in groups:
-            rest_force[rows] = _apply(u_c[rows], rest)
         eps = self.cell_strain() if eps is None else eps
         if self._weighted_cells.size:
             eps = eps.copy()
             eps[:, self._weighted_cells] = (self._weighted_strain @ self._u).reshape(6, -1)
-        w = eps[:, hit]
-        sig = self.law.effective_stress(w)
-        return hit, w, sig, positive_part(sig), (u_c, rest_force, groups)
+        w = eps.take(hit, axis=1)           # C order, as the kernels take it
+        m, dofs = hit.size, self._cell_dofs.shape[1]
+        sig, pos, u_c = np.empty((6, m)), np.empty((6, m)), np.empty((m, dofs))
+        library().split_cells(m, dofs, hit, self._cell_dofs, self._u, w, self.law.young,
+                              self.law.poisson, sig, pos, u_c)
+        rest_force = np.empty_like(u_c)
+        groups = self._groups(hit)
+        for rows, rest in groups:
+            rest_force[rows] = _apply(u_c[rows], rest)
+        return hit, w, sig, pos, (u_c, rest_force, groups)
 
     # --- forces and energies ----------------------------------------------------------------
     def internal_force(self, split=None):
@@ -277,15 +278,12 @@ class DamageModel(ElasticModel):
         if already known)."""
         self._K_petsc.mult(self._u_vec, self._work_vec)
         self._force[:] = self._work
-        hit, _, sig, pos, (_, rest_force, groups) = self.split() if split is None else split
+        hit, _, sig, pos, (_, rest_force, _) = self.split() if split is None else split
         if hit.size:
-            stress = np.ascontiguousarray((self.damage_t[hit] * pos
-                                           + self.damage_c[hit] * (sig - pos)).T)
-            lost = self.damage[hit, None] * rest_force
-            for rows, force, _ in groups:
-                lost[rows] += _apply(stress[rows], force)
-            self._force -= np.bincount(self._cell_dofs[hit].ravel(), lost.ravel(),
-                                       minlength=self.ndof)
+            force_ops, own_ops = self._class_ops[0], self._own_ops[0]
+            library().lost_forces(hit.size, self._cell_dofs.shape[1], hit, self._cell_dofs, sig,
+                                  pos, self.damage_t, self.damage_c, self.damage, rest_force,
+                                  self._class_of, force_ops, self._own_row, own_ops, self._force)
         return self._force
 
     def predict(self, dt):

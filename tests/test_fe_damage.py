@@ -63,6 +63,31 @@ def test_below_its_floor_the_tension_strain_skips_no_cell_that_passes_it():
     assert np.array_equal(cheap[exact > floor], exact[exact > floor])
 
 
+def test_the_tension_strain_is_the_largest_effective_stress_over_e_in_any_block():
+    """⟨σ̄₁⟩ / E = ⟨λ tr ε + 2μ ε₁⟩ / E against numpy's eigenvalues, on counts of cells around
+    the C loops' block of 64 (whole, partial and single blocks)."""
+    rng = np.random.default_rng(5)
+    nu, E = LAW.poisson, LAW.young
+    lam, mu = E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
+    for n in (1, 63, 64, 65, 200):
+        eps = rng.normal(scale=1e-4, size=(n, 3, 3))
+        eps = 0.5 * (eps + eps.transpose(0, 2, 1))
+        e1 = np.linalg.eigvalsh(eps)[:, -1]
+        expected = np.maximum(lam * np.trace(eps, axis1=1, axis2=2) + 2 * mu * e1, 0) / E
+        got = LAW.tension_strain(components(eps))
+        assert np.abs(got - expected).max() <= 1e-12 * 1e-4
+
+
+def test_the_damage_loops_compiler_failing_is_one_line(tmp_path, monkeypatch):
+    from fenicsx_side.kernels import library
+    monkeypatch.setenv("DEM_FEM_CACHE", str(tmp_path))
+    monkeypatch.setenv("CC", "false")
+    with pytest.raises(RuntimeError, match=r"^compiling damage_kernels\.c with false failed") as e:
+        library.__wrapped__()
+    assert "\n" not in str(e.value)
+    assert list((tmp_path / "kernels").iterdir()) == []        # nothing half-made is left
+
+
 def test_the_positive_part_is_the_spectral_one():
     """Σ ⟨λ_i⟩ n_i⊗n_i against numpy's eigenvectors, on matrices of mixed and of one sign; the
     parts are orthogonal and add up to the matrix."""
@@ -178,6 +203,16 @@ def test_band_width_is_the_side_along_the_direction_and_the_height_of_a_tetrahed
 
 
 # --- the model --------------------------------------------------------------------------------
+@pytest.mark.parametrize("cell", [mesh.CellType.hexahedron, mesh.CellType.tetrahedron])
+def test_every_cells_mean_strain_of_a_linear_field_is_its_symmetric_gradient(cell):
+    m = DamageModel(box([0, 0, 0], [1.0, 0.6, 0.4], [3, 2, 2], cell), LAW, RHO)
+    grad = np.random.default_rng(6).normal(scale=1e-4, size=(3, 3))
+    set_linear(m, grad)
+    expected = components(np.broadcast_to(0.5 * (grad + grad.T), (len(m.cell_nodes), 3, 3)))
+    # sums of 8 (4) terms of about |grad| each: a few roundings of |grad|
+    assert np.abs(m.cell_strain() - expected).max() <= 1e-13 * np.abs(grad).max()
+
+
 def stiffness_of(m):
     """The model's damaged stiffness, column by column from its internal force."""
     K = np.empty((m.ndof, m.ndof))

@@ -104,8 +104,8 @@ def test_cache_file_of_another_cell_is_not_used(reference, prefilled, tmp_path, 
 def test_unusable_cache_folder_is_refused_in_one_line(tmp_path, monkeypatch):
     (tmp_path / "file").write_text("")
     monkeypatch.setenv("DEM_FEM_CACHE", str(tmp_path / "file" / "cache"))
-    with pytest.raises(ValueError, match=r"packing cache folder .*file/cache \(DEM_FEM_CACHE\) "
-                                         r"cannot be made: Not a directory"):
+    with pytest.raises(ValueError, match=r"^cache folder .*file/cache/cells \(DEM_FEM_CACHE\) "
+                                         r"cannot be made: Not a directory$"):
         dense_box_packing(LO, HI, R, spheres_in_cell=N)
 
 

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common.files import save_npz
+from common.files import cache_folder, save_npz
 from yade_side import import_yade
 
 SPHERES_IN_CELL = 2000
@@ -40,17 +40,8 @@ SHIPPED = Path(__file__).resolve().parent / "cells"
 
 
 def cache_dir():
-    """Where the packings are cached: $DEM_FEM_CACHE, else (unset or empty) ~/.cache/…; never
-    the working folder."""
-    path = Path(os.environ.get("DEM_FEM_CACHE") or Path.home() / ".cache" / "yade-fenicsx-coupling")
-    try:
-        (path / "cells").mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise ValueError(f"packing cache folder {path} (DEM_FEM_CACHE) cannot be made: "
-                         f"{err.strerror}") from None
-    if not os.access(path / "cells", os.W_OK):
-        raise ValueError(f"packing cache folder {path / 'cells'} (DEM_FEM_CACHE) is not writable")
-    return path
+    """Where the packings are cached (common.files.cache_folder): its folder cells/ is made."""
+    return cache_folder("cells").parent
 
 
 def dense_box_packing(lo, hi, radius, rel_fuzz=0.0, seed=1, spheres_in_cell=SPHERES_IN_CELL):
