@@ -24,7 +24,8 @@ import numpy as np
 from orchestrator.coupling.assembly import bridging_spheres, make_coupling, time_step
 from orchestrator.coupling.bridging import check_weighting
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.coupling.relaxation import auto_relaxation
+from orchestrator.coupling.relaxation import (MAX_LAYERS, Prediction, auto_layers,
+                                              auto_relaxation, margin)
 from orchestrator.stepper import CoupledStepper
 
 
@@ -333,13 +334,25 @@ def _time_step(d, fe, beta, problems):
 
 
 def _relaxation(d, bridge, dt, critical):
+    """r of the coupling, and a note of how 'auto' chose it: the 1D band's prediction at the
+    case's n_b (which its geometry fixes: the spheres must fill the band), and where that falls
+    short of the 1D goal, the n_b that would reach it."""
     spec = d.coupling
     if spec.relaxation != "auto":
         return float(spec.relaxation), []
-    ratio = d.bridging.width / d.bridging.layers / (2 * bridge.radius.mean())
+    layers = d.bridging.layers
+    ratio = d.bridging.width / layers / (2 * bridge.radius.mean())
     safety = dt / min(v for v in critical.values() if v is not None)
-    r = float(auto_relaxation(ratio, d.bridging.layers, spec.variant, safety, spec.weighting))
-    return r, [f"relaxation auto: r = {r:.4g}, the 1D band's r with the most margin to the goal "
-               f"(docs/wave1d.md) for a discretisation ratio {ratio:.3g} (element size / mean "
-               f"sphere diameter), {d.bridging.layers} layers, {spec.variant} solver, "
-               f"{spec.weighting} weighting, dt = {safety:.3g} × the critical step"]
+    r = float(auto_relaxation(ratio, layers, spec.variant, safety, spec.weighting))
+    attenuation, lf = Prediction(ratio, layers, spec.variant, safety, spec.weighting)(r)
+    note = (f"relaxation auto: r = {r:.4g}, the 1D band's r with the most margin to the goal "
+            f"(docs/wave1d.md) for a discretisation ratio {ratio:.3g} (element size / mean "
+            f"sphere diameter), {layers} layers, {spec.variant} solver, {spec.weighting} "
+            f"weighting, dt = {safety:.3g} × the critical step: predicted attenuation "
+            f"{100 * attenuation:.1f} %, LF change {100 * lf:+.2f} %")
+    if margin(attenuation, lf) < 1:
+        need, _ = auto_layers(ratio, spec.variant, safety, spec.weighting, min_layers=layers)
+        note += (f", short of the goal (>= 99 %, |LF| < 1 %): " + (
+            f"{need} layers would reach it" if need else
+            f"no band up to {MAX_LAYERS} layers reaches it"))
+    return r, [note]

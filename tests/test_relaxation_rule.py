@@ -103,3 +103,19 @@ def test_the_slab_band_table_is_the_rule_applied_to_the_slab_defaults():
         assert (nb, r) == (s.layers, s.relaxation)
         assert margin(att, lf) < 1 and rule_nb > nb
         assert margin(*Prediction(ratio, rule_nb, s.variant, s.dt_safety, s.weighting)(rule_r)) > 1
+
+
+def test_layers_for_a_given_r_is_the_narrowest_band_that_meets_the_goal_there():
+    """r = 3 at ratio 5: its predicted margin misses the goal at n_b = 3 and 4 and meets it at
+    5; the 1D case's default n_b ('auto') with that r is then 5, and says why."""
+    def met(nb):
+        return rule.margin(*rule.Prediction(5, nb)(3.0)) >= rule.REQUIRED_MARGIN
+    assert [met(nb) for nb in (3, 4, 5)] == [False, False, True]
+    assert rule.layers_for(3.0, 5)[0] == 5
+    assert rule.layers_for(3.0, 5, max_layers=4)[0] is None
+    from cases.wave1d import Wave1DSpec
+    spec = Wave1DSpec(relaxation=3.0)
+    assert spec.layers == 5 and "narrowest band where r = 3 meets the goal" in spec.rule
+    assert Wave1DSpec(relaxation=3.0, layers=3).layers == 3
+    with pytest.raises(ValueError, match="r must be >= 1"):
+        rule.layers_for(0.5, 5)

@@ -24,7 +24,9 @@ from orchestrator.casefile import (choice, integer, integer_or_auto as layers_ki
                                    spec_key as key)
 from orchestrator.coupling.bridging import WEIGHTINGS, check_weighting
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.coupling.relaxation import auto_coupling, auto_relaxation
+from orchestrator.coupling.relaxation import MAX_LAYERS, auto_coupling, auto_relaxation, layers_for
+
+MIN_LAYERS = 3      # layers 'auto' widens the band from this one (the paper's band)
 
 E, RHO = 30e9, 2400.0          # concrete-like bar (m, kg, s)
 C = math.sqrt(E / RHO)
@@ -40,9 +42,10 @@ class Wave1DSpec:
                        help="multiplier solver")
     relaxation: object = key("auto", number_or_auto, positive, section="coupling",
                              help="relaxation r >= 1, or 'auto': the rule of docs/wave1d.md")
-    layers: object = key(3, layers_kind, positive, section="coupling",
-                         help="bridging FE layers n_b, or 'auto' (with relaxation 'auto'): the "
-                              "rule widens the band where r alone misses the goal")
+    layers: object = key("auto", layers_kind, positive, section="coupling",
+                         help="bridging FE layers n_b, or 'auto': the rule's narrowest band "
+                              "from 3 that meets the goal (with relaxation 'auto', r alone "
+                              "first; with a given r, at that r)")
     ratio: int = key(5, integer, positive, section="wave1d",
                      help="FE element length / sphere spacing")
     element: float = key(0.05, number, positive, section="wave1d",
@@ -62,10 +65,7 @@ class Wave1DSpec:
             raise ValueError(f"wave1d: variant must be 'full' or 'diagonal', got {self.variant!r}")
         auto_layers = self.layers == "auto"
         if auto_layers:
-            if self.relaxation != "auto":
-                raise ValueError("wave1d: layers 'auto' needs relaxation 'auto' (the rule picks "
-                                 "both)")
-            self.layers = 3
+            self.layers = MIN_LAYERS
         if int(self.layers) != self.layers or self.layers < 1:
             raise ValueError(f"wave1d: layers must be an integer >= 1, got {self.layers!r}")
         if int(self.ratio) != self.ratio or self.ratio < 2:
@@ -82,7 +82,7 @@ class Wave1DSpec:
         check_weighting("wave1d", self.weighting)
         if not 0 < self.dt_safety <= 1:
             raise ValueError(f"wave1d: dt_safety must be in (0, 1], got {self.dt_safety!r}")
-        if auto_layers:
+        if auto_layers and self.relaxation == "auto":
             self.relaxation, self.layers, self.rule = auto_coupling(
                 self.ratio, self.layers, self.variant, self.dt_safety, self.weighting)
         elif self.relaxation == "auto":
@@ -96,6 +96,15 @@ class Wave1DSpec:
                              f"got {self.relaxation!r}") from None
         if not self.relaxation >= 1:
             raise ValueError(f"wave1d: relaxation must be >= 1, got {self.relaxation!r}")
+        if auto_layers and self.rule is None:
+            nb, att, lf = layers_for(self.relaxation, self.ratio, self.variant, self.dt_safety,
+                                     self.weighting, MIN_LAYERS)
+            figures = f"predicted attenuation {100 * att:.2f} %, LF change {100 * lf:+.2f} %"
+            self.layers = nb or MIN_LAYERS
+            self.rule = (f"n_b = {nb}, the narrowest band where r = {self.relaxation:g} meets "
+                         f"the goal ({figures})" if nb else
+                         f"r = {self.relaxation:g} meets the goal at no n_b up to "
+                         f"{MAX_LAYERS}: n_b = {MIN_LAYERS} kept ({figures})")
 
     def reference(self):
         """Full Lagrange, r = 1, same geometry and excitation."""

@@ -283,6 +283,24 @@ def auto_layers(ratio, variant="diagonal", dt_safety=0.8, weighting="consistent"
     return hi, found[hi]
 
 
+def layers_for(relaxation, ratio, variant="diagonal", dt_safety=0.8, weighting="consistent",
+               min_layers=3, max_layers=MAX_LAYERS, required=REQUIRED_MARGIN):
+    """(n_b, attenuation, LF change) of the narrowest band from `min_layers` on where the given
+    r meets the goal with `required` margin; n_b = None when none up to `max_layers` does (the
+    figures are then those of `min_layers`). At a fixed r the margin need not grow with n_b
+    (r too small for a wide band's weights), so every width is tried in turn."""
+    ratio, dt_safety = _check(ratio, min_layers, dt_safety)
+    if not relaxation >= 1:
+        raise ValueError(f"relaxation rule: r must be >= 1, got {relaxation!r}")
+    first = None
+    for nb in range(min_layers, max_layers + 1):
+        figures = Prediction(ratio, nb, variant, dt_safety, weighting)(relaxation)
+        first = first or figures
+        if margin(*figures) >= required:
+            return nb, *figures
+    return None, *first
+
+
 def auto_coupling(ratio, layers=3, variant="diagonal", dt_safety=0.8, weighting="consistent",
                   max_layers=MAX_LAYERS):
     """(r, n_b, reason): r alone at n_b = `layers` when it meets the goal there, else the
