@@ -1,1 +1,1 @@
-"""Benchmarks of the slab models against the performance goals (issue 6): `python -m bench`."""
+"""Benchmarks of the slab models against the performance goals: `python -m bench`."""

@@ -3,7 +3,7 @@
 Absolute goals (the slab issue's): every sensor's peak within 10 % of the reference's, every
 history's nRMS at most 15 %, the damaged volume within 15 %.
 
-Relative verdict (issue 14): is the coupled model's deviation from the full ensemble's mean no
+Relative verdict: is the coupled model's deviation from the full ensemble's mean no
 larger than the full model's own scatter? The scatter of a member is its deviation from the mean
 of the OTHER full members (leave-one-out): the mean of all members includes the member itself and
 so understates its distance, by the factor (n-1)/n (orchestrator/ensemble.py: histories). For

@@ -218,7 +218,7 @@ def doc(table, runs, outcomes, projected_s, sweep, images, command):
              "against the full ensemble's scatter between packing seeds (the largest coupled "
              "deviation against the largest leave-one-out deviation of a full member: "
              "orchestrator/verdicts.py), the damaged volume likewise, the per-step speed-up, "
-             "the sphere ratio and the wall time spent. The goal (issue 17): within the full "
+             "the sphere ratio and the wall time spent. The goal: within the full "
              "scatter on every sensor and the damaged volume, and at least 5× cheaper per "
              "step at medium scale, 10× at paper scale.", ""]
     lines += (_claim_lines(table) + _method_lines(_last_state_runs(runs, outcomes))

@@ -1,4 +1,4 @@
-"""`study`: where coupling pays (issue 17). The accuracy-cost map of the coupled slab at medium
+"""`study`: where coupling pays. The accuracy-cost map of the coupled slab at medium
 scale (cases.slab.study_plan says which runs), the paper-scale pair of the configuration it
 says pays, and the table, plots and docs page written from the run folders. Runs already
 finished with the same description are reused, so the study resumes where it stopped."""
