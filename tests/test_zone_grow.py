@@ -255,7 +255,8 @@ def test_affine_shear_strain_of_links():
 
 @pytest.mark.slow
 def test_the_slab_grows_its_zone_during_the_run(tmp_path, capsys):
-    """`slab --zone grow` end to end: a broken band link converts cells at step 200, the run
+    """`slab --zone grow` end to end: its indicators convert cells during the run (which one
+    trips first, FE damage or a broken band link, is the physics', not the test's), the run
     goes on to its end with the sensors continuous across the conversion, and records it;
     a zone that cannot grow stops with one line and keeps what it wrote."""
     import json
@@ -268,7 +269,7 @@ def test_the_slab_grows_its_zone_during_the_run(tmp_path, capsys):
     assert main(grow + ["--trip-omega", "1", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
     first = summary["zone_conversions"][0]
-    assert summary["zone_outcome"] == "clean" and first["step"] == 200
+    assert summary["zone_outcome"] == "clean" and 0 < first["step"] < 300
     assert first["spheres_added"] > 0 and first["cells"]
     assert abs(first["energy_after"] / first["energy_before"] - 1) < 0.1
     assert summary["n_spheres"] == first["spheres"] + sum(

@@ -8,6 +8,12 @@ and zones.png the zone's growth over the slab's plan. When the zone cannot grow 
 limit, or the budget), one line says that coupling cannot pay for this impact; what the run
 wrote until then is kept in stopped/, and with fallback "full" the full model runs in the
 folder.
+
+Checkpoints and `--resume` (docs/auto-zone.md): a checkpoint holds, beside what a fixed
+zone's holds (scene, FE, coupling, the run's record), the growth
+(orchestrator.run.grow.GrowingModel.checkpoint_state); a resumed run builds the model of the
+zone the checkpoint was in, with the run's time step, and the run loop loads the state into
+it.
 """
 from types import SimpleNamespace
 
@@ -22,12 +28,18 @@ from orchestrator.run.autozone import plot_zones
 from orchestrator.run.grow import GrowingModel, ZoneLimit
 
 
-def run_grow(spec, out, quiet=False):
+def run_grow(spec, out, quiet=False, resume=False, inputs=None):
     """The coupled slab with a zone grown during the run; returns the summary written in
-    `out`."""
+    `out`; resume: carry on from the checkpoint in `out` (`inputs`: what the results depend
+    on, orchestrator.run.inputs; a resumed run must have the same)."""
+    from orchestrator.run.inputs import spec_inputs
     base, start, limit, levels = check(spec)
     grid = cell_grid(base)
     dt = None                   # every zone's model takes the first one's time step
+    inputs = spec_inputs(spec, "coupled") if inputs is None else inputs
+    resumed = resumed_growth(out, inputs, grid, start, limit) if resume else None
+    if resumed is not None:
+        dt = float(resumed.info["dt"])
 
     def build(mask):
         nonlocal dt
@@ -39,10 +51,11 @@ def run_grow(spec, out, quiet=False):
     model = GrowingModel(build, grid, start, limit, spec.tensile_strength, levels,
                          tol=1e-6 * spec.radius, log=say, shear=spec.grow_shear,
                          budget=lambda segments, n: over_budget(segments, n, full_spheres,
-                                                                spec))
+                                                                spec),
+                         resumed=resumed)
     full_spheres = len(model.scene.packs.slab_radii) + len(model.impactor_ids)
     try:
-        summary = run_built(model, out, quiet)
+        summary = run_built(model, out, quiet, resume, inputs)
         outcome, limit_reached = "clean", None
     except ZoneLimit as e:
         stopped = out / "stopped"
@@ -71,6 +84,45 @@ def run_grow(spec, out, quiet=False):
                limit, f"slab {spec.scale}, {spec.impactor_speed:g} m/s, grown during the run",
                joined="zone the cell joined (1: the start)")
     return summary
+
+
+def resumed_growth(out, inputs, grid, start, limit):
+    """The growth kept in the checkpoint in `out` (orchestrator.run.grow.ResumedGrowth),
+    checked against this run's case before any model is built: ValueError (one line) if the
+    case changed since (each difference named) or the growth does not fit its grid, start
+    zone and limit."""
+    from orchestrator.run.grow import GROWTH_STATE_VERSION, ResumedGrowth
+    from orchestrator.run.restart import check_inputs, model_state
+    if (out / "stopped").exists():
+        raise ValueError(f"{out}: its zone reached its limit and what it ran is in stopped/; "
+                         f"nothing of the growing run to resume")
+    check_inputs(out, inputs)
+    info, arrays = model_state(out)
+    where = f"{out}/checkpoint: the zone growth it holds"
+    version = info.get("version") if isinstance(info, dict) else None
+    if version != GROWTH_STATE_VERSION or "zones" not in arrays:
+        raise ValueError(f"{where} is not one this version reads (version {version!r}, "
+                         f"{GROWTH_STATE_VERSION} here): run it again")
+    zones = np.asarray(arrays["zones"])
+    try:
+        dt = float(info["dt"])
+        conversions, segments = info["conversions"], info["segments"]
+        info["peaks"], info["watch"]["steps"], info["sensors"]
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"{where} is unreadable ({e!r} missing or wrong)") from None
+    why = (f"its zones are masks of shape {zones.shape[1:]}, the case's grid has {grid.shape}"
+           if zones.ndim != 3 or zones.dtype != bool or zones.shape[1:] != tuple(grid.shape)
+           else "its first zone is not the case's start zone"
+           if not np.array_equal(zones[0], start)
+           else "a zone passes the case's limit" if (zones & ~limit).any()
+           else "a zone does not hold the one before" if (zones[:-1] & ~zones[1:]).any()
+           else f"{len(zones)} zones for {len(conversions)} conversions"
+           if len(zones) != len(conversions) + 1 or len(segments) != len(conversions)
+           else f"its time step {dt!r} is not a positive number" if not (dt > 0)
+           else None)
+    if why:
+        raise ValueError(f"{where} does not fit the case ({why}): run it again with --out")
+    return ResumedGrowth(info, arrays)
 
 
 def over_budget(segments, n, full_spheres, spec):

@@ -30,6 +30,7 @@ from orchestrator.run.autozone import Tripped, Watch
 from orchestrator.run.restart import add_splits
 
 run_log = logging.getLogger("orchestrator.run")
+GROWTH_STATE_VERSION = 1    # of what checkpoint_state writes
 
 
 class ZoneLimit(Exception):
@@ -157,15 +158,20 @@ class GrowingModel:
     growing at step n cannot pay (None if it can; segments: (spheres, steps) of each zone
     run so far). Bodies, nodes and cells of two models match within `tol` (m); `shear`:
     see carry. Listeners in `on_grow` are told (old, new, k) after the k-th conversion.
-    Reads of attributes go to the current model."""
+    Reads of attributes go to the current model. Checkpoints: checkpoint_state() is what the
+    growth adds to the current model's state (orchestrator.run.restart); `resumed` (a
+    ResumedGrowth read back from one) builds the model of its last zone and takes its growth."""
 
     def __init__(self, build, grid, zone, limit, tensile_strength, levels, tol, budget=None,
-                 log=print, shear=False):
+                 log=print, shear=False, resumed=None):
         t0 = perf_counter()
         self.__dict__.update(build=build, cell_grid=grid, limit=limit, ft=tensile_strength,
                              levels=levels, tol=tol, budget=budget, log=log, shear=shear)
         self.zone = zone.copy()
         self.zones = [self.zone.copy()]
+        if resumed is not None:         # a checkpoint's growth (checkpoint_state): its zone
+            self.zones = [z.copy() for z in resumed.zones]
+            self.zone = self.zones[-1].copy()
         self.current = build(self.zone)
         if self.current.parts.inside_step:
             raise ValueError("a zone that grows during the run needs the coupling outside "
@@ -176,6 +182,8 @@ class GrowingModel:
         self._earlier = {}              # time split of the earlier models
         self.peaks = {"stress": 0.0, "omega": 0.0, "damage": 0.0}
         self._bind_sensors = None       # the first model's sensors, at its first growth
+        if resumed is not None:
+            self._restore(resumed)
         self.build_s = perf_counter() - t0
 
     def __getattr__(self, name):
@@ -260,6 +268,49 @@ class GrowingModel:
                            ("damage", w.peak_damage)):
             self.peaks[key] = max(self.peaks[key], value)
 
+    # --- checkpoints (orchestrator.run.restart saves the current model's state as any
+    # model's: scene, FE, coupling; this is what the growth adds) ------------------------------
+    def checkpoint_state(self):
+        """What a checkpoint keeps of the growth: (a JSON-able dict, {name: array}): the zone
+        of every segment (the last one is the current model's), the conversions, the zone
+        segments, the indicators' peaks and step count, the time step every zone's model
+        takes, and the first model's sensors (once bound elsewhere). The earlier models'
+        time split is not kept: the run loop's record holds it."""
+        w = self.watch
+        info = {"version": GROWTH_STATE_VERSION, "dt": float(self.current.dt),
+                "zone_cells": int(self.zone.sum()), "conversions": self.conversions,
+                "segments": [[int(a), int(b)] for a, b in self.segments],
+                "peaks": dict(self.peaks),
+                "watch": {"steps": int(w.steps), "seconds": float(w.seconds),
+                          "peak_stress": float(w.peak_stress),
+                          "peak_omega": float(w.peak_omega),
+                          "peak_damage": float(w.peak_damage)},
+                "sensors": None}
+        arrays = {"zones": np.array(self.zones, dtype=bool)}
+        if self._bind_sensors is not None:
+            b = self._bind_sensors
+            info["sensors"] = {"names": list(b.names)}
+            arrays.update(sensor_positions=b.positions, sensor_sphere_ref=b.sphere_ref,
+                          sensor_node_pos=b.node_pos)
+        return info, arrays
+
+    def _restore(self, resumed):
+        """Take the growth of a checkpoint (ResumedGrowth); the current model is the one of
+        its last zone, built; the scene, FE and coupling states are the run loop's to load."""
+        info, w = resumed.info, resumed.info["watch"]
+        self.conversions = list(info["conversions"])
+        self.segments = [(int(a), int(b)) for a, b in info["segments"]]
+        self.peaks = {k: float(v) for k, v in info["peaks"].items()}
+        self.watch.steps, self.watch.seconds = int(w["steps"]), float(w["seconds"])
+        self.watch.peak_stress, self.watch.peak_omega, self.watch.peak_damage = (
+            float(w["peak_stress"]), float(w["peak_omega"]), float(w["peak_damage"]))
+        if info["sensors"] is not None:
+            a = resumed.arrays
+            self._bind_sensors = SensorBinding(list(info["sensors"]["names"]),
+                                               a["sensor_positions"], a["sensor_sphere_ref"],
+                                               a["sensor_node_pos"])
+            self._bind_sensors(self.current)
+
     def record(self, steps):
         """What summary.json keeps of the growth."""
         self._record_peaks()
@@ -272,19 +323,29 @@ class GrowingModel:
                 "zone_peaks": dict(self.peaks)}
 
 
-def _sensor_binding(first):
-    """A function that puts the sensors of the model `first` on another model: at the same
+@dataclass
+class ResumedGrowth:
+    """A checkpoint's growth state (GrowingModel.checkpoint_state, read back)."""
+    info: dict
+    arrays: dict
+
+    @property
+    def zones(self):
+        return list(self.arrays["zones"])
+
+
+@dataclass
+class SensorBinding:
+    """The sensors of a run's first model, put on another model (a grown zone's): at the same
     points of the body, read from the same sphere, or for an FE node that a grown zone has
     taken, from the sphere nearest its position (as the full model reads it)."""
-    if first.sensor_order is not None:
-        raise ValueError("the first model's sensors must be in set_sensors' order")
-    names, positions = list(first.sensor_names), first.sensor_positions.copy()
-    n_spheres = len(first._sensor_spheres)
-    sphere_ref = first._sensor_spheres.ref_pos.copy() if n_spheres else np.empty((0, 3))
-    node_pos = (first.fe.nodes[first._sensor_nodes] if first._sensor_nodes.size
-                else np.empty((0, 3)))
+    names: list
+    positions: np.ndarray      # (n_sensors, 3): where the sensors are
+    sphere_ref: np.ndarray     # reference positions of the first model's sensor spheres
+    node_pos: np.ndarray       # positions of its sensor FE nodes
 
-    def bind(model):
+    def __call__(self, model):
+        n_spheres, node_pos = len(self.sphere_ref), self.node_pos
         ref = model.spheres.ref_pos
         nearest = lambda points: [int(np.argmin(np.linalg.norm(ref - p, axis=1)))
                                   for p in points]
@@ -293,6 +354,16 @@ def _sensor_binding(first):
         taken = np.flatnonzero(at < 0)
         bound = list(range(n_spheres)) + [n_spheres + j for j in taken] + \
             [n_spheres + j for j in np.flatnonzero(at >= 0)]
-        model.set_sensors(names, nearest(sphere_ref) + nearest(node_pos[taken]),
-                          [int(i) for i in at if i >= 0], positions, np.argsort(bound))
-    return bind
+        model.set_sensors(self.names, nearest(self.sphere_ref) + nearest(node_pos[taken]),
+                          [int(i) for i in at if i >= 0], self.positions, np.argsort(bound))
+
+
+def _sensor_binding(first):
+    """The SensorBinding of the model `first`'s sensors."""
+    if first.sensor_order is not None:
+        raise ValueError("the first model's sensors must be in set_sensors' order")
+    n_spheres = len(first._sensor_spheres)
+    return SensorBinding(
+        list(first.sensor_names), first.sensor_positions.copy(),
+        first._sensor_spheres.ref_pos.copy() if n_spheres else np.empty((0, 3)),
+        first.fe.nodes[first._sensor_nodes] if first._sensor_nodes.size else np.empty((0, 3)))

@@ -19,9 +19,7 @@ class Recorder:
         self.no_checkpoints = ("the FE state is distributed over MPI ranks"
                                if model.fe is not None and model.fe.distributed else
                                "the YADE scene is split over MPI ranks"
-                               if remote() is not None else
-                               "a zone that grows during the run does not resume" if growing
-                               else None)
+                               if remote() is not None else None)
         self.checkpoints = self.no_checkpoints is None
         if not self.checkpoints:
             log.info("no checkpoints: %s", self.no_checkpoints)
@@ -37,7 +35,9 @@ class Recorder:
         self.fe_series = None
         if model.fe is not None:
             from fenicsx_side.output import XdmfSeries
-            self.fe_series = XdmfSeries(out / "fe.xdmf", model.fe, frames=frames)
+            # a grown zone's run goes on in the file of its current FE mesh (regrid)
+            self.fe_series = XdmfSeries(out / self.rec.fe_series, model.fe,
+                                        frames=frames - self.rec.fe_first)
         self.output_s = 0.0
         self.t_run = perf_counter()
         if not resume:
@@ -97,14 +97,17 @@ class Recorder:
     def regrid(self, old, new, k):
         """The model's DE zone grew (its k-th conversion): the damage maps so far are put on
         its spheres (a sphere new to the DE had none), and the FE series goes on in
-        fe-zone{k + 1}.xdmf, the FE part's new mesh."""
+        fe-zone{k + 1}.xdmf, the FE part's new mesh (its first frame the next output, which
+        a checkpoint records); the checkpoints' fingerprint is the new model's."""
         from orchestrator.run.grow import match
         at = match(old.spheres.ref_pos, new.spheres.ref_pos, 1e-9)
         self.rec.maps = [np.where(at >= 0, m[at], 0.0) for m in self.rec.maps]
+        self.meta.update(restart.fingerprint(new, self.meta["title"], self.meta["steps"]))
         if self.fe_series is not None:
             from fenicsx_side.output import XdmfSeries
             self.fe_series.close()
-            self.fe_series = XdmfSeries(self.out / f"fe-zone{k + 1}.xdmf", new.fe)
+            self.rec.fe_series, self.rec.fe_first = f"fe-zone{k + 1}.xdmf", len(self.rec.maps_t)
+            self.fe_series = XdmfSeries(self.out / self.rec.fe_series, new.fe)
 
     def seconds(self):
         """Time split of this segment and the earlier ones."""

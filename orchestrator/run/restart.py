@@ -6,7 +6,10 @@ stopped: the YADE scene with its CPM damage history (yade_side.checkpoint), the 
 exchange meter) and what the run loop has gathered (sensor histories, energies, damage maps,
 the time split). Everything else (packing, FE mesh and operators, coupling matrices, initial
 links, reference positions) is rebuilt from the case, deterministically, and checked against
-the checkpoint's fingerprint before the state is loaded. A checkpoint is written in a
+the checkpoint's fingerprint before the state is loaded. A model with a state of its own
+beyond those (`checkpoint_state()`: a zone grown during the run, orchestrator.run.grow) has it
+kept beside them (`model.json`, `model.npz`), read back with `model_state` before the model
+is rebuilt as it was. A checkpoint is written in a
 temporary folder and swapped in by renames: a run killed at any moment leaves either the
 previous checkpoint or the new one, whole.
 """
@@ -47,6 +50,10 @@ class Record:
     wall_s: float = 0.0                           # wall time of earlier run segments
     # the FE's largest cell σ1 over the samples and its time, then its largest von Mises and time
     fe_peak: list = field(default_factory=lambda: [0.0, 0.0, 0.0, 0.0])
+    # the FE series file written now, and the output frame it starts at (a zone grown during
+    # the run starts a file per FE mesh)
+    fe_series: str = "fe.xdmf"
+    fe_first: int = 0
 
 
 def add_splits(a, b):
@@ -75,7 +82,8 @@ def save(out, record, model, meta, seconds):
              "history": np.array(record.history), "energy": np.array(record.energy).reshape(-1, 2),
              "maps_t": np.array(record.maps_t), "maps": np.array(record.maps),
              "gaps": np.array(record.gaps).reshape(-1, 3),
-             "wall_s": record.wall_s, "fe_peak": np.array(record.fe_peak)}
+             "wall_s": record.wall_s, "fe_peak": np.array(record.fe_peak),
+             "fe_series": np.array(record.fe_series), "fe_first": record.fe_first}
     if model.fe is not None:
         state.update(fe_u=model.fe.u, fe_v=model.fe.v, fe_t=model.fe.t,
                      **{f"fe_history_{k}": v for k, v in model.fe.history().items()})
@@ -85,6 +93,11 @@ def save(out, record, model, meta, seconds):
         state.update(rotation=stepper.bridge.rotation, rotation_pred=stepper.bridge.rotation_pred,
                      **{f"exchange_{k}": v for k, v in stepper.exchange.state().items()})
     save_npz(new / "state.npz", **state)
+    own = getattr(model, "checkpoint_state", None)
+    if own is not None:
+        info, arrays = own()
+        write_json(new / "model.json", info)
+        save_npz(new / "model.npz", **arrays)
     write_json(new / "meta.json", {**meta, "step": record.n, "seconds": seconds})
     if final.exists():
         # a run killed after its last swap can leave the checkpoint before it: stale now
@@ -101,6 +114,23 @@ def read_meta(out):
         return json.loads((folder / "meta.json").read_text())
     except (OSError, ValueError) as e:
         raise ValueError(f"{folder / 'meta.json'}: unreadable checkpoint file ({e})") from None
+
+
+def model_state(out):
+    """(info, arrays) a model's checkpoint_state() wrote into the checkpoint in run folder
+    `out`; ValueError (one line) if there is none or it cannot be read."""
+    folder = _folder(out)
+    try:
+        info = json.loads((folder / "model.json").read_text())
+        with np.load(folder / "model.npz") as data:
+            arrays = {k: data[k] for k in data.files}
+    except FileNotFoundError as e:
+        raise ValueError(f"{folder}: unreadable checkpoint file (no {Path(e.filename).name} in "
+                         f"it: the model's own state)") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
+        raise ValueError(f"{folder}: unreadable checkpoint file, the model's own state "
+                         f"({e})") from None
+    return info, arrays
 
 
 def resume_meta(out):
@@ -165,7 +195,8 @@ def load(out, model, meta):
     return Record(int(state["n"]), list(state["times"]), list(state["history"]),
                   [tuple(e) for e in state["energy"]], list(state["maps_t"]),
                   list(state["maps"]), [tuple(g) for g in state["gaps"]], saved["seconds"],
-                  float(state["wall_s"]), [float(v) for v in state["fe_peak"]])
+                  float(state["wall_s"]), [float(v) for v in state["fe_peak"]],
+                  str(state.get("fe_series", "fe.xdmf")), int(state.get("fe_first", 0)))
 
 
 def _folder(out):
