@@ -169,7 +169,7 @@ def test_reinforced_de_strip_bends_like_the_transformed_section():
     """The small slab's DE strip (0.3 m wide, 2.5 m span, 0.28 m thick) with 3 bars of 20 mm at
     40 mm from the bottom: its stiffness gain over the plain strip matches the transformed
     section's I_t / I with n = E_s / E_b, E_b the plain strip's own bending modulus (the DE
-    strip bends like ~17 GPa, docs/slab.md), within 10 %; shear deformation is left out
+    strip bends like ~20 GPa, cases/slab/scales.py), within 10 %; shear deformation is left out
     (span/depth 9: ~3 % of the deflection, on both strips alike). The bars leave
     PWaveTimeStep unchanged."""
     from cases.reinforcement import Layer, transformed_section

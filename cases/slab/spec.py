@@ -91,9 +91,7 @@ class SlabSpec:
                               "paper's (not conservative, docs/coupling.md)")
     relaxation: object = key("auto", number_or_auto, positive, section="coupling",
                              help="relaxation r, or 'auto': the rule derived from the 1D band "
-                                  "(docs/wave1d.md; r = 20.9 at small scale, dt 0.3); the paper's 35 "
-                                  "gives the same slab within the full model's scatter "
-                                  "(docs/slab.md)")
+                                  "(docs/wave1d.md; r = 20.9 at small scale, dt 0.3)")
     rotations: bool = key(True, boolean, section="coupling", help="couple sphere rotations")
     dt_safety: object = key(0.3, number_or_auto, safety_range, section="time",
                             help="× the smaller critical step, or 'auto': the run picks it by "
