@@ -304,8 +304,8 @@ void split_cells(int64_t m, int64_t dofs, const int64_t *hit, const int64_t *cel
     positive_part(m, sig, pos);
 }
 
-/* The energy the damage increments dissipate: Σ over the k growing cells c = grow[i], at
- * place j = at[i] of the split (w, sig, pos: (6, m); u_c, rest: (m, dofs)), of
+/* The energy the damage increments dissipate: Σ over the k growing cells c = grow[i] whose
+ * damage moved, at place j = at[i] of the split (w, sig, pos: (6, m); u_c, rest: (m, dofs)), of
  * ½ ΔD u_c·K_rest u_c + V_c (½ σ̄⁺:w ΔD_t + ½ σ̄⁻:w ΔD_c). */
 double dissipation(int64_t k, int64_t m, int64_t dofs, const int64_t *grow, const int64_t *at,
                    const double *step, const double *step_t, const double *step_c,
@@ -314,6 +314,7 @@ double dissipation(int64_t k, int64_t m, int64_t dofs, const int64_t *grow, cons
 {
     double total = 0;
     for (int64_t i = 0; i < k; i++) {
+        if (step[i] == 0 && step_t[i] == 0 && step_c[i] == 0) continue;  /* D still 0: not split */
         int64_t j = at[i];
         double ur = 0, yt = 0, yc = 0;
         for (int64_t a = 0; a < dofs; a++) ur += u_c[j * dofs + a] * rest[j * dofs + a];

@@ -70,7 +70,8 @@ class DamageModel(ElasticModel):
         self.dissipated = 0.0
         self._force = np.zeros(self.ndof)
         self._nodes64 = np.ascontiguousarray(self.cell_nodes, dtype=np.int64)
-        self._cell_dofs = (3 * self.cell_nodes[:, :, None] + np.arange(3, dtype=np.int64)).reshape(n, -1)
+        self._cell_dofs = (3 * self.cell_nodes[:, :, None]
+                           + np.arange(3, dtype=np.int64)).reshape(n, -1)
         dofs = self._cell_dofs.shape[1]
         self._own_ops = (np.zeros((0, 6, dofs)), np.zeros((0, dofs, dofs)))  # cells of their own
         self._own_row = np.full(n, -1)          # each cell's row there (-1: none yet)
@@ -241,10 +242,11 @@ class DamageModel(ElasticModel):
                               law.kappa0, self.damage_t, self.damage_c, self.damage, step)
         split = self.split(eps)
         hit, w, sig, pos, (u_c, rest_force, _) = split
-        at = self._position[grow]             # grow ⊂ hit: a growing damage is > 0
-        self.dissipated += library().dissipation(count, hit.size, u_c.shape[1], grow, at,
-                                                 step[2], step[0], step[1], u_c, rest_force, w,
-                                                 sig, pos, self._weighted_volume)
+        if hit.size:    # a growing κ gives D > 0 but for rounding just above κ₀ (no increment)
+            at = self._position[grow]
+            self.dissipated += library().dissipation(count, hit.size, u_c.shape[1], grow, at,
+                                                     step[2], step[0], step[1], u_c, rest_force,
+                                                     w, sig, pos, self._weighted_volume)
         return split
 
     def split(self, eps=None):
