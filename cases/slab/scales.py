@@ -31,12 +31,11 @@ class Scale:
 #   GPa with the sets before, whose uniaxial E was 26.5 and 29.6 GPa on today's packings);
 #   12.5 diameters like 24.9 GPa (paper: measured with the set before the refit, whose E on
 #   today's packing was 31.9 GPa, now 31.0: not measured again yet);
-# - de_zone, full_width: at 40 m/s damage reaches the free edges y = 0, 2 within 5 ms; a strip
-#   x ∈ [0.83, 1.67] m holds 98.9 % of the full small model's damaged volume, x ∈ [0.8, 1.7] m
-#   96.7 % of the medium one's. At paper scale no zone that pays holds the 40 m/s damage (a
-#   1.5 m box would hold 90 %): the default is the zone the map found within the full model's
-#   scatter at 10 m/s, a 0.5 m box with one bridging layer, ~9 × fewer spheres
-#   (docs/where-coupling-pays.md, docs/slab.md).
+# - de_zone, full_width: at 40 m/s damage reaches the free edges y = 0, 2 within 5 ms (the full
+#   slab's damage map, `compare`'s damage plots), so the small and medium default is a
+#   full-width strip. At paper scale no zone that pays holds the 40 m/s damage: the default is
+#   the zone the map found within the full model's scatter at 10 m/s, a 0.5 m box with one
+#   bridging layer, ~9 × fewer spheres (docs/where-coupling-pays.md, docs/slab.md).
 # - steps: the full slab at 10 m/s (seed 1) sinks to its first peak at 5.2 ms under the
 #   impact and 6.0 ms at the far sensors (small), 5.2 and 4.7 ms (medium), and is back to half
 #   of it by 6.7 and 6.9 ms: 7 ms holds both (`slab --model full --impactor-speed 10 --steps
