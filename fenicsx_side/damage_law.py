@@ -161,6 +161,18 @@ class ConcreteDamage:
         pos = positive_part(sig)
         return (1 - np.asarray(d_t)) * pos + (1 - np.asarray(d_c)) * (sig - pos)
 
+    def compaction(self, eps, d_c):
+        """D_c C⁻¹ σ̄⁻ of strains (6, n): the strain the compression damage has taken out of
+        the stress, C : (ε − this) = σ̄ − D_c σ̄⁻ (what is left once the tension part is
+        undamaged). A material that unloads elastically from a crushed state keeps it as its
+        plastic strain."""
+        sig = self.effective_stress(eps)
+        neg = sig - positive_part(sig)
+        nu = self.poisson
+        out = (1 + nu) * neg
+        out[:3] -= nu * trace(neg)
+        return np.asarray(d_c) / self.young * out
+
 
 def _check_width(h, limit, sign, formula, name, energy, strength, young):
     h = np.asarray(h, float)

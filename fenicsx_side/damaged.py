@@ -312,6 +312,16 @@ class DamageModel(ElasticModel):
         s.max_principal = np.linalg.eigvalsh(s.tensor)[:, -1]
         return s
 
+    def compaction_at(self, points):
+        """The compaction tensors (n, 3, 3) of the cells containing `points`
+        (ConcreteDamage.compaction of their mean strains); 0 at a point in no cell."""
+        points = np.ascontiguousarray(points, dtype=float).reshape(-1, 3)
+        found, cells, _ = self._locate_owned(points)
+        out = np.zeros((len(points), 3, 3))
+        out[found] = tensors(self.law.compaction(self.cell_strain()[:, cells],
+                                                 self.damage_c[cells]))
+        return out
+
     def take_state(self, old, nodes, cells):
         super().take_state(old, nodes, cells)
         for name in self._STATE:

@@ -289,6 +289,10 @@ class ElasticModel:
         _check_located(found, points)
         return cells, X
 
+    def covers(self, points):
+        """Whether each point is in a cell of this rank's."""
+        return self._locate_owned(np.ascontiguousarray(points, dtype=float).reshape(-1, 3))[0]
+
     def check_covered(self, points):
         """Raise ValueError naming the first point in no cell of the mesh (collective: the
         cells of every rank count)."""

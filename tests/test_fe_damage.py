@@ -103,6 +103,22 @@ def test_the_positive_part_is_the_spectral_one():
     assert np.abs(np.einsum("cab,cab->c", pos, a - pos)).max() <= 1e-10 * np.abs(a).max() ** 2
 
 
+def test_the_compaction_is_what_the_compression_damage_took_out_of_the_stress():
+    """C : (ε − compaction) is the stress with the tension part undamaged, to rounding; a
+    strain of one sign is compacted by D_c ε (all negative stress) or not at all."""
+    rng = np.random.default_rng(5)
+    eps = rng.normal(size=(6, 300)) * 1e-3
+    d_c = rng.uniform(size=300)
+    sig = LAW.stress(eps, np.zeros(300), d_c)
+    left = LAW.effective_stress(eps - LAW.compaction(eps, d_c))
+    assert np.abs(left - sig).max() <= 1e-14 * np.abs(sig).max()
+    crushed = components(np.repeat(-np.eye(3)[None] * 1e-3, 4, axis=0)
+                         + np.diag([-1e-3, 0, 0])[None])
+    assert np.abs(LAW.compaction(crushed, 0.4) - 0.4 * crushed).max() <= 1e-14 * 2e-3
+    stretched = components(np.repeat(np.eye(3)[None] * 1e-3, 4, axis=0))
+    assert not LAW.compaction(stretched, 0.9).any()
+
+
 def test_the_positive_part_of_repeated_and_vanishing_eigenvalues_is_exact_to_rounding():
     """Double and near-double roots (a uniaxial stress, whose closed-form roots are only
     √ε-accurate), eigenvalues at and near zero, rotated: the split to 1e-14 of the matrix."""

@@ -253,6 +253,44 @@ def test_affine_shear_strain_of_links():
                        tangential(0.3 * np.einsum("pab,pb->pa", W, n)), rtol=1e-12, atol=1e-19)
 
 
+def test_gaps_carry_on_harmonically_into_the_new_bodies():
+    """continued_gaps on a simple cubic lattice (links to the 6 face and 12 edge neighbours:
+    a linear field is harmonic there): a linear gap at the old bodies around a block of new
+    ones comes back exactly inside; a gap of 0 at the new band pulls it to 0 there; bodies
+    the FE does not cover give no gap; new bodies linked to no known one take 0."""
+    from orchestrator.run.grow import continued_gaps
+    n = 9
+    grid = np.stack(np.meshgrid(*[np.arange(n)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    ref = 2 * R * grid.astype(float)
+    radius = np.full(len(ref), R)
+    inner = np.all((grid > 0) & (grid < n - 1), axis=1)
+    free, old = np.flatnonzero(inner), np.flatnonzero(~inner)
+    A = np.array([[1.0, -2.0, 0.5], [0.3, 0.0, 1.0], [2.0, 1.0, -1.0]]) * 1e-3
+    du, dv = lambda x: (x - 0.04) @ A.T, lambda x: x @ A
+    motion = lambda j: (du(ref[j]), dv(ref[j]))
+    zero = lambda j: (np.zeros((len(j), 3)), np.zeros((len(j), 3)))
+    everywhere = lambda j: np.ones(len(j), bool)
+    gaps = continued_gaps(ref, radius, free, np.arange(0), motion, everywhere, zero)
+    exact = np.hstack([du(ref[free]), dv(ref[free])])
+    # the diagonal's 1e-12 regularisation, times the lattice's condition (~(n/π)²)
+    assert np.abs(gaps - exact).max() < 1e-10 * np.abs(exact).max()
+    # the FE at the old bodies is the gap itself: nothing to carry
+    assert np.abs(continued_gaps(ref, radius, free, np.arange(0), motion, everywhere,
+                                 motion)).max() < 1e-15
+    # a band of new bodies along x = max takes 0 and pulls the gap down towards it
+    band = free[grid[free, 0] == n - 2]
+    rest = free[grid[free, 0] < n - 2]
+    g = continued_gaps(ref, radius, rest, band, motion, everywhere, zero)
+    known = np.abs(np.hstack(motion(old))).max(axis=0)       # the maximum principle
+    assert (np.abs(g).max(axis=0) <= known * (1 + 1e-12)).all()
+    next_to_band = grid[rest, 0] == n - 3
+    assert (np.abs(g[next_to_band]).mean(axis=0)
+            < np.abs(exact[grid[free, 0] == n - 3]).mean(axis=0)).all()
+    uncovered = continued_gaps(ref, radius, free, np.arange(0), motion,
+                               lambda j: np.zeros(len(j), bool), zero)
+    assert np.abs(uncovered).max() < 1e-12
+
+
 @pytest.mark.slow
 def test_the_slab_grows_its_zone_during_the_run(tmp_path, capsys):
     """`slab --zone grow` end to end: its indicators convert cells during the run (which one

@@ -2,7 +2,7 @@
 zone, built afresh): bodies by a correspondence the caller gives, and their CPM
 interactions with their history (yade_side.memory: O.save does not keep it, nor would a
 rebuilt scene): links broken in the old scene are erased in the new, and the new links may
-be given a shear strain. Frictional contacts (the impactor on the slab, a broken link closed
+be given a history (a shear strain, a normal plastic strain). Frictional contacts (the impactor on the slab, a broken link closed
 again) are made again with their reference penetration: one the collider made anew would
 take the current penetration as its reference and start without force.
 """
@@ -17,6 +17,7 @@ from yade_side.scene import settle_forces
 # the 19 history doubles (memory.HISTORY): 7 scalars, then sigmaT, Fs, epsTPl, epsT, whose
 # signs follow the link's normal (from id1 to id2)
 _VECTORS = slice(7, WIDTH)
+EPS_N_PL = 6
 EPS_T = slice(16, 19)
 SAMPLE = 256   # links on which the history's place in memory is verified (checkpoints: all)
 
@@ -61,13 +62,14 @@ def capture_links(ids):
                  scalars[:, 0], scalars[:, 1], scalars[:, 2].astype(bool))
 
 
-def restore_links(links, ids, old_of, shear=None):
+def restore_links(links, ids, old_of, new_history=None):
     """Into the current scene (its links made, its bodies `ids` where the captured ones
     are; old_of: index of each into the captured bodies, -1 for a body the old scene did not
     have): each interaction between two old bodies takes its captured history, normal, G and
     refPD, a link the old scene had lost (it broke there) is erased, a contact it had is
-    made (the old scene's bodies are all in the new one); with `shear`, the links with a
-    new body get epsT = shear(ends, normal) (ends: their bodies' indices into `ids`).
+    made (the old scene's bodies are all in the new one); with `new_history`, the links with
+    a new body get their history from new_history(ends, normal, values), which writes into
+    their history values (m, 19) (ends: their bodies' indices into `ids`).
     Returns the counts of each kind and the new links' (id1, id2). The scene must not couple
     inside its step (settle_forces)."""
     yade = import_yade()
@@ -93,12 +95,12 @@ def restore_links(links, ids, old_of, shear=None):
         O.interactions.erase(*pair)
     offset = find_offset([i for i, _, _ in carry] + [i for i, _, _ in new], SAMPLE)
     _write(carry, links, offset)
-    if shear is not None and new:
+    if new_history is not None and new:
         ends = np.array([(j1, j2) for _, j1, j2 in new])
         normal = np.array([tuple(i.geom.normal) for i, _, _ in new])
         blocks = HistoryBlocks([i.phys for i, _, _ in new], offset)
         values = blocks.read()
-        values[:, EPS_T] = shear(ends, normal)
+        new_history(ends, normal, values)
         blocks.write(values)
     # contacts: made now, their stiffness and reference set by the law at their first step
     # (a step of zero length, which leaves the links above as they are), then their history

@@ -9,9 +9,10 @@ builder and given the old model's state (docs/auto-zone.md):
   centre, position ref + k u, velocity k v, rotation and spin h u, h v (½ curl); their links
   are made at reference positions, so the positions give them the FE's normal strain
   exactly, and CPM damages them from that strain at their first step (along each link's
-  own direction); with `shear` they take the FE's affine shear strain too (by default not:
-  it adds 2-3 × the energy the cells had, as a random packing's links under an affine shear
-  do; docs/auto-zone.md);
+  own direction); a cell's compression damage becomes their normal plastic strain
+  (link_compaction); with `shear` they take the FE's affine shear strain too (by default
+  not: it adds 2-3 × the energy the cells had, as a random packing's links under an affine
+  shear do; docs/auto-zone.md);
 - FE nodes and cells that stay FE (matched by coordinates): u, v, t and the damage history;
 - the coupling: the band spheres' accumulated rotations (the old band's kept, the new ones'
   h u), the energy meter.
@@ -87,7 +88,7 @@ def carry(snap, model, tol, shear=False):
     links take the FE's affine shear strain); returns what was carried (counts of bodies and
     links) and the new links (id pairs)."""
     from yade_side.bulk import rotation_quaternion
-    from yade_side.transfer import lever_arms_are_radii, restore_links
+    from yade_side.transfer import EPS_N_PL, EPS_T, lever_arms_are_radii, restore_links
     old_fe, fe = snap.fe, model.fe
     ids, ref = bodies(model)
     old_of = match(snap.ref, ref, tol)
@@ -99,22 +100,32 @@ def carry(snap, model, tol, shear=False):
     state[added, 3:6] = (k @ old_fe.v).reshape(-1, 3)
     state[added, 6:9] = (h @ old_fe.v).reshape(-1, 3)
     state[added, 9:13] = rotation_quaternion((h @ old_fe.u).reshape(-1, 3))
+    radius = np.concatenate([b.radius for b in model.energy_bodies])
+    band = match(model.stepper.bridge.ref_pos, ref[added], tol) >= 0
+    gaps = continued_gaps(ref, radius, added[~band], added[band],
+                          lambda j: (state[j, 0:3] - ref[j], state[j, 3:6]),
+                          lambda j: old_fe.covers(ref[j]),
+                          lambda j: _field(old_fe, ref[j]))
+    state[added[~band], 0:6] += gaps
     start = 0
     for b in model.energy_bodies:
         b.state[:] = state[start:start + len(b)]
         b.write()
         start += len(b)
-    radius = np.concatenate([b.radius for b in model.energy_bodies])
     radii_levers = lever_arms_are_radii()
 
-    def affine_shear(ends, normal):
-        """epsT of links under the old FE's displacement gradient at their new end."""
-        G = old_fe.gradient_at(ref[np.where(old_of[ends[:, 0]] < 0, ends[:, 0], ends[:, 1])])
-        length = np.linalg.norm(ref[ends[:, 1]] - ref[ends[:, 0]], axis=1)
-        lever = radius[ends].sum(axis=1) if radii_levers else length
-        return affine_shear_strain(G, normal, lever / length)
+    def new_history(ends, normal, values):
+        """The FE's state on each new link: the compaction (epsNPl) of the cell at its
+        middle and, with `shear`, the affine shear strain (epsT) at its new end."""
+        values[:, EPS_N_PL] = link_compaction(old_fe, 0.5 * ref[ends].sum(axis=1), normal)
+        if shear:
+            at = ref[np.where(old_of[ends[:, 0]] < 0, ends[:, 0], ends[:, 1])]
+            length = np.linalg.norm(ref[ends[:, 1]] - ref[ends[:, 0]], axis=1)
+            lever = radius[ends].sum(axis=1) if radii_levers else length
+            values[:, EPS_T] = affine_shear_strain(old_fe.gradient_at(at), normal,
+                                                   lever / length)
 
-    counts, new_links = restore_links(snap.links, ids, old_of, affine_shear if shear else None)
+    counts, new_links = restore_links(snap.links, ids, old_of, new_history)
     nodes = match(old_fe.nodes, fe.nodes, tol)
     cells = match(_centres(old_fe), _centres(fe), tol)
     if (nodes < 0).any() or (cells < 0).any():
@@ -135,6 +146,79 @@ def carry(snap, model, tol, shear=False):
             **{f"links_{k}": v for k, v in counts.items()}}, new_links
 
 
+def continued_gaps(ref, radius, free, zero, old_motion, covered, fe_motion):
+    """The gaps between the DE's own motion and the FE's field at the old DE's edge, carried
+    on into the new DE bodies `free`: harmonic over the link graph (bodies closer than
+    INTERACTION_RADIUS × their radii), equal to the gap (u, v) − FE field (u, v) at every
+    old body linked to a new one that the FE covers (old_motion(j), fe_motion(j): (n, 3)
+    displacements and velocities; covered(j): mask), 0 at the bodies `zero` (the new band,
+    which follows the FE). Returns (len(free), 6): what to add to the new bodies' FE-field
+    displacement and velocity.
+
+    Bodies new to the DE take the FE's field, but the old DE's edge is not on it (the
+    coupling holds the band to the FE weakly, the impact compresses it locally): a new link
+    between the two would take that gap as its strain (10-30 × the FE's, 5 × the energy the
+    converted cells held, under the impactor); continued harmonically, the gap spreads over
+    the converted cells instead of one link."""
+    from scipy.sparse import coo_matrix, diags
+    from scipy.sparse.linalg import spsolve
+    from yade_side.scene import INTERACTION_RADIUS
+    out = np.zeros((len(free), 6))
+    if len(free) == 0:
+        return out
+    tree = cKDTree(ref)
+    near = tree.query_ball_point(ref[free], INTERACTION_RADIUS * 2 * radius.max())
+    a = np.repeat(free, [len(n) for n in near])
+    b = np.concatenate([np.asarray(n, int) for n in near])
+    linked = (a != b) & (np.linalg.norm(ref[a] - ref[b], axis=1)
+                         < INTERACTION_RADIUS * (radius[a] + radius[b]))
+    a, b = a[linked], b[linked]
+    is_free = np.zeros(len(ref), bool)
+    is_free[free] = True
+    is_new = is_free.copy()
+    is_new[zero] = True
+    old = np.unique(b[~is_new[b]])
+    old = old[covered(old)] if len(old) else old
+    known = np.zeros((len(ref), 6))
+    if len(old):
+        u, v = old_motion(old)
+        fu, fv = fe_motion(old)
+        known[old] = np.hstack([u - fu, v - fv])
+    keep = is_free[b] | np.isin(b, old) | is_new[b]
+    a, b = a[keep], b[keep]
+    row = np.full(len(ref), -1)
+    row[free] = np.arange(len(free))
+    inner = is_free[b]
+    n = len(free)
+    L = coo_matrix((-np.ones(np.count_nonzero(inner)), (row[a[inner]], row[b[inner]])),
+                   shape=(n, n)).tocsr()
+    degree = np.bincount(row[a], minlength=n).astype(float)
+    # a cluster with no known body takes 0 (the diagonal's 1e-12 more), not a singular solve
+    L = L + diags(degree * (1 + 1e-12))
+    rhs = np.zeros((n, 6))
+    np.add.at(rhs, row[a[~inner]], known[b[~inner]])
+    return spsolve(L.tocsc(), rhs).reshape(n, 6)
+
+
+def _field(fe, points):
+    """The FE's displacement and velocity at `points`, (n, 3) each."""
+    k = fe.point_operators(points)[0]
+    return (k @ fe.u).reshape(-1, 3), (k @ fe.v).reshape(-1, 3)
+
+
+def link_compaction(fe, points, normal):
+    """CPM's normal plastic strain epsNPl of links of normal n at `points` of the FE `fe`:
+    n·ε_p·n, ε_p the compaction of the cell there (damage_law.ConcreteDamage.compaction); 0
+    in an FE without damage, and outside its cells. A CPM link is not damaged in compression: a crushed cell's
+    strain on fresh links would hold the cell's undamaged stress and energy (up to 5 × the
+    energy the cells held, under the impactor); with its compaction as their plastic
+    strain they carry the cell's compressive stress, and unload as the spheres' own
+    compression test does (docs/auto-zone.md)."""
+    if not fe.carries_damage or len(points) == 0:
+        return np.zeros(len(points))
+    return np.einsum("pab,pa,pb->p", fe.compaction_at(points), normal, normal)
+
+
 def affine_shear_strain(G, normal, lever_ratio):
     """CPM's shear strain epsT of links of normal n (from id1 to id2) whose spheres moved with
     the displacement gradient G and turned with it (W = skew G, ½ curl u): the tangential part
@@ -144,6 +228,17 @@ def affine_shear_strain(G, normal, lever_ratio):
     t = (np.einsum("pab,pb->pa", G, normal)
          - np.asarray(lever_ratio)[:, None] * np.einsum("pab,pb->pa", W, normal))
     return t - np.einsum("pa,pa->p", t, normal)[:, None] * normal
+
+
+def strain_energy_ratio(before, after):
+    """The strain energy the DE's links gained at a conversion over the one the FE lost (the
+    models' energy_parts before and after): 1 when the spheres stand for the cells they
+    replace with the cells' stiffness; None when the FE lost none or the links' energy is
+    unreadable (a contact with the impactor turns it NaN, energy_parts then gives 0)."""
+    lost = before["fe_strain"] - after["fe_strain"]
+    if not lost > 0 or not (before["de_links"] and after["de_links"]):
+        return None
+    return (after["de_links"] - before["de_links"]) / lost
 
 
 def _centres(fe):
@@ -253,6 +348,7 @@ class GrowingModel:
             "energy_before": energy_before, "energy_after": energy_after,
             "energy_parts_before": before, "energy_parts_after": after,
             "new_links_energy": {"normal": normal, "shear": shear},
+            "strain_energy_ratio": strain_energy_ratio(before, after),
             "carried": carried, "wall_s": perf_counter() - t0, "build_s": t_build})
         line = (f"zone grown at step {n} ({tripped.indicator}): {int(grown.sum())} cells, "
                 f"{new.sphere_count()} spheres (+{carried['bodies_added']}); energy "
@@ -319,6 +415,8 @@ class GrowingModel:
                 "zone_final": {"cells": np.argwhere(self.zone).tolist(),
                                "n_cells": int(self.zone.sum())},
                 "zone_sphere_steps": int(sum(a * b for a, b in segments)),
+                "zone_energy_added": float(sum(c["energy_after"] - c["energy_before"]
+                                               for c in self.conversions)),
                 "zone_segments": [{"spheres": int(a), "steps": int(b)} for a, b in segments],
                 "zone_peaks": dict(self.peaks)}
 
