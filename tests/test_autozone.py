@@ -128,6 +128,7 @@ def test_limit_stops_the_search():
     outcome = find_zone(lambda zone: StretchedBlock(zone, uniaxial(1e-5)), steps, grid,
                         start, limit, FT, TripLevels(), log=lambda line: None)
     assert outcome.status == "limit" and len(outcome.attempts) == 1
+    assert outcome.attempts[0]["beyond_limit"].endswith("cells that tripped lie outside it")
     assert outcome.summary is None and np.array_equal(outcome.zone, start)
     record = outcome.record(grid, 1000, 30)
     assert record["zone_final"]["n_cells"] == 1 and record["zone_outcome"] == "limit"
@@ -141,6 +142,16 @@ def test_limit_stops_the_search():
     expected = start.copy()
     expected[4:] = True
     assert outcome.status == "clean" and np.array_equal(outcome.zone, expected)
+
+
+def test_a_trip_says_how_far_past_the_limit_it_lies():
+    cells = np.zeros((6, 4), bool)
+    cells[2:5, 1] = True
+    limit = np.zeros((6, 4), bool)
+    limit[:3] = True
+    assert Tripped(7, "x", cells).beyond(limit) == "2 of the 3 cells that tripped lie outside it"
+    limit[:] = True
+    assert Tripped(7, "x", cells).beyond(limit) == "no cell to convert inside it"
 
 
 def test_budget_stops_the_search_before_the_next_attempt():

@@ -97,7 +97,7 @@ def message(outcome, full_spheres, record):
     """The search's one line: that coupling cannot pay, and because of what (the concrete the
     DE zone must hold spreads past the zone's limit or its budget: the last trip says where)."""
     a = outcome.attempts[-1]
-    why = ("would pass its limit" if outcome.limit == "cells" else
+    why = (f"would pass its limit ({a['beyond_limit']})" if outcome.limit == "cells" else
            "would cost more than the full model (zone.cost) in another attempt")
     return cannot_pay(f"after {len(outcome.attempts)} attempts, the last tripped at step "
             f"{a['tripped_step']} by {a['indicator']}, the DE zone ({a['cells']} of "

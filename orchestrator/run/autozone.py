@@ -89,6 +89,13 @@ class Tripped(Exception):
             return None
         return grown
 
+    def beyond(self, limit):
+        """How far what tripped lies past `limit` (a mask), in words."""
+        outside = int(np.count_nonzero(self.cells & ~limit))
+        if outside == 0:
+            return "no cell to convert inside it"
+        return f"{outside} of the {int(self.cells.sum())} cells that tripped lie outside it"
+
 
 class Watch:
     """The indicators of one coupled model, read after every `stress_every`-th and
@@ -223,6 +230,7 @@ def find_zone(build, run, grid, start, limit, tensile_strength, levels, log=prin
         grown = tripped.grown(zone, grid, levels.margin, limit)
         if grown is None:
             status, reached = "limit", "cells"
+            attempts[-1]["beyond_limit"] = tripped.beyond(limit)
             break
         why = None if budget is None else budget(attempts)
         if why:

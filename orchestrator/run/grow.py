@@ -314,7 +314,8 @@ class GrowingModel:
         grid, old, n = self.cell_grid, self.current, self.watch.steps
         grown = tripped.grown(self.zone, grid, self.levels.margin, self.limit)
         if grown is None:
-            raise ZoneLimit("the DE zone would pass its limit", "cells", tripped)
+            raise ZoneLimit(f"the DE zone would pass its limit ({tripped.beyond(self.limit)})",
+                            "cells", tripped)
         segment = self._segment(n)
         why = None if self.budget is None else self.budget(self.segments + [segment], n)
         if why:
