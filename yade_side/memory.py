@@ -151,6 +151,8 @@ HISTORY = ("omega", "Fn", "sigmaN", "epsN", "relResidualStrength", "kappaD", "ep
            "sigmaT", "Fs", "epsTPl", "epsT")
 WIDTH = 19
 _SEARCH = 128  # doubles of a CpmPhys searched for the block
+_REVERIFY = 16  # links on which a found offset is verified again
+_found = None   # the offset found on a whole sample in this process
 # where the block lies in the CpmPhys of the verified versions (found on damaged links)
 HISTORY_OFFSET = {"2023.02a": 12}
 
@@ -208,9 +210,18 @@ def find_offset(links, sample=None):
     holds exactly the values Python reads (with `sample`, that many links spread over the
     list: the layout is the class's, the same in every link). Links at rest can hold a block
     (mostly zeros) that matches at several places; the offset this YADE version's layout was
-    verified at (HISTORY_OFFSET) then decides. CheckpointError if it cannot be found."""
+    verified at (HISTORY_OFFSET) then decides. Once found on `sample` or more links, the
+    offset is the class's for this process: later calls verify it on a few of their links
+    (_REVERIFY) and search again only if they disagree. CheckpointError if it cannot be
+    found."""
+    global _found
     if not links:
         return None
+    if _found is not None:
+        few = links[::-(-len(links) // _REVERIFY)]
+        if all(same_bits(history_block(i.phys, _found), history_values(i.phys)) for i in few):
+            return _found
+    whole = sample is None or len(links) >= sample
     if sample is not None and len(links) > sample:
         links = links[::-(-len(links) // sample)]
     probe = max(links, key=lambda i: np.count_nonzero(history_values(i.phys)))
@@ -228,4 +239,6 @@ def find_offset(links, sample=None):
     if len(hits) != 1:
         raise CheckpointError(f"CpmPhys history block found {len(hits)} times in memory (on "
                               f"every link); cannot checkpoint the CPM damage state")
+    if whole:
+        _found = hits[0]
     return hits[0]
