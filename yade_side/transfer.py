@@ -2,9 +2,10 @@
 zone, built afresh): bodies by a correspondence the caller gives, and their CPM
 interactions with their history (yade_side.memory: O.save does not keep it, nor would a
 rebuilt scene): links broken in the old scene are erased in the new, and the new links may
-be given a history (a shear strain, a normal plastic strain). Frictional contacts (the impactor on the slab, a broken link closed
-again) are made again with their reference penetration: one the collider made anew would
-take the current penetration as its reference and start without force.
+be given a history (a shear strain, a normal plastic strain). Frictional contacts (the
+impactor on the slab, a broken link closed again) are made again with their reference
+penetration: one the collider made anew would take the current penetration as its reference
+and start without force.
 """
 from dataclasses import dataclass
 

@@ -6,13 +6,14 @@ builder and given the old model's state (docs/auto-zone.md):
   the CPM history, a link the old scene had lost (broken) erased, and contacts made again
   with their reference penetration (yade_side.transfer);
 - bodies new to the DE (the converted FE cells and the new band): the FE field at their
-  centre, position ref + k u, velocity k v, rotation and spin h u, h v (½ curl); their links
-  are made at reference positions, so the positions give them the FE's normal strain
-  exactly, and CPM damages them from that strain at their first step (along each link's
-  own direction); a cell's compression damage becomes their normal plastic strain
-  (link_compaction); with `shear` they take the FE's affine shear strain too (by default
-  not: it adds 2-3 × the energy the cells had, as a random packing's links under an affine
-  shear do; docs/auto-zone.md);
+  centre, position ref + k u, velocity k v, rotation and spin h u, h v (½ curl), and outside
+  the new band the gap between the old DE's edge and that field, carried on harmonically
+  (continued_gaps); their links are made at reference positions, so the positions give
+  them their normal strain exactly, and CPM damages them from that strain at their first
+  step (along each link's own direction); a cell's compression damage becomes their normal
+  plastic strain (link_compaction); with `shear` they take the FE's affine shear strain too
+  (by default not: it adds 2-3 × the energy the cells had, as a random packing's links
+  under an affine shear do; docs/auto-zone.md);
 - FE nodes and cells that stay FE (matched by coordinates): u, v, t and the damage history;
 - the coupling: the band spheres' accumulated rotations (the old band's kept, the new ones'
   h u), the energy meter.
@@ -157,9 +158,8 @@ def continued_gaps(ref, radius, free, zero, old_motion, covered, fe_motion):
 
     Bodies new to the DE take the FE's field, but the old DE's edge is not on it (the
     coupling holds the band to the FE weakly, the impact compresses it locally): a new link
-    between the two would take that gap as its strain (10-30 × the FE's, 5 × the energy the
-    converted cells held, under the impactor); continued harmonically, the gap spreads over
-    the converted cells instead of one link."""
+    between the two would take that gap as its strain, in one link's length; continued
+    harmonically, it spreads over the converted cells (docs/auto-zone.md)."""
     from scipy.sparse import coo_matrix, diags
     from scipy.sparse.linalg import spsolve
     from yade_side.scene import INTERACTION_RADIUS
@@ -209,11 +209,10 @@ def _field(fe, points):
 def link_compaction(fe, points, normal):
     """CPM's normal plastic strain epsNPl of links of normal n at `points` of the FE `fe`:
     n·ε_p·n, ε_p the compaction of the cell there (damage_law.ConcreteDamage.compaction); 0
-    in an FE without damage, and outside its cells. A CPM link is not damaged in compression: a crushed cell's
-    strain on fresh links would hold the cell's undamaged stress and energy (up to 5 × the
-    energy the cells held, under the impactor); with its compaction as their plastic
-    strain they carry the cell's compressive stress, and unload as the spheres' own
-    compression test does (docs/auto-zone.md)."""
+    in an FE without damage, and outside its cells. A CPM link is not damaged in
+    compression: fresh links under a crushed cell's strain would hold the cell's undamaged
+    stress; with its compaction as their plastic strain they carry the cell's compressive
+    stress, and unload as the spheres' own compression test does (docs/auto-zone.md)."""
     if not fe.carries_damage or len(points) == 0:
         return np.zeros(len(points))
     return np.einsum("pab,pa,pb->p", fe.compaction_at(points), normal, normal)
@@ -234,7 +233,7 @@ def strain_energy_ratio(before, after):
     """The strain energy the DE's links gained at a conversion over the one the FE lost (the
     models' energy_parts before and after): 1 when the spheres stand for the cells they
     replace with the cells' stiffness; None when the FE lost none or the links' energy is
-    unreadable (a contact with the impactor turns it NaN, energy_parts then gives 0)."""
+    unreadable (energy_parts gives 0 then)."""
     lost = before["fe_strain"] - after["fe_strain"]
     if not lost > 0 or not (before["de_links"] and after["de_links"]):
         return None
