@@ -125,13 +125,23 @@ def resumed_growth(out, inputs, grid, start, limit):
     return ResumedGrowth(info, arrays)
 
 
+# A conversion (the grown model's build and the state carried into it) costs about as much
+# wall time as this many steps of the grown model: 90 at small scale (1.6 s at 6,000
+# spheres), 107 at paper scale (24 s at 78,000), 40 m/s, seed 1 (docs/auto-zone.md).
+CONVERSION_STEPS = 100
+
+
 def over_budget(segments, n, full_spheres, spec):
-    """Why growing cannot pay (None if it can): the sphere steps run, plus the rest of the run
-    with at least the current zone's spheres, reach zone_cost × the full model's."""
+    """Why growing at step n cannot pay (None if it can): the sphere steps run (each
+    conversion counted as CONVERSION_STEPS steps of the zone it made), plus the conversion
+    asked for and the rest of the run with at least the current zone's spheres, reach
+    zone_cost × the full model's. segments: (spheres, steps) of each zone so far."""
     full = full_spheres * spec.steps
-    spent = sum(spheres * steps for spheres, steps in segments)
-    rest = segments[-1][0] * (spec.steps - n)
+    spent = sum(spheres * steps for spheres, steps in segments) + \
+        CONVERSION_STEPS * sum(spheres for spheres, _ in segments[1:])
+    rest = segments[-1][0] * (CONVERSION_STEPS + spec.steps - n)
     if not spec.zone_cost or spent + rest < spec.zone_cost * full:
         return None
-    return (f"{spent:.4g} sphere steps run and at least {rest:.4g} to come reach zone.cost = "
-            f"{spec.zone_cost:g} × the full model's {full:.4g}")
+    return (f"{spent:.4g} sphere steps run (conversions counted as {CONVERSION_STEPS} steps "
+            f"each) and at least {rest:.4g} to come reach zone.cost = {spec.zone_cost:g} × "
+            f"the full model's {full:.4g}")
