@@ -12,6 +12,15 @@ from orchestrator.coupling.correction import VARIANTS
 from orchestrator.run.autozone import ahead_level, damage_level, omega_level, stress_level
 from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY, concrete_set
 
+# The band-link indicator's defaults per FE material. With an elastic FE a partly damaged band
+# link means the crack reaches what the FE cannot follow. A damaging FE follows partial
+# damage (its own indicator trips at trip_damage): there a broken band link trips, checked
+# every 100 steps; with 0.1 or 0.5 every 400 or 100 steps the small slab's grown zone reached
+# its limit at 10, 20 and 40 m/s on seeds 1-3, where with these it is within the full scatter
+# at 10 and 20 m/s (docs/auto-zone.md, "Trip levels against the ensembles").
+BAND_CHECK = {"elastic": {"trip_omega": 0.1, "links_every": 400},
+              "damage": {"trip_omega": 1.0, "links_every": 100}}
+
 
 @dataclass
 class SlabSpec:
@@ -48,17 +57,19 @@ class SlabSpec:
     trip_stress: float = key(1.0, number, stress_level, section="zone",
                              help="auto, grow: an FE cell with σ1 >= this × ft trips (the FE cannot "
                                   "crack)")
-    trip_omega: float = key(0.1, number, omega_level, section="zone",
+    trip_omega: float = key(None, number, omega_level, section="zone",
                             help="auto, grow: a bridging link with damage >= this trips (the "
-                                 "coupling assumes an elastic band)")
+                                 "coupling assumes an elastic band); default 0.1, 1 (a broken "
+                                 "link) with fe.material 'damage'")
     trip_damage: float = key(0.9, number, damage_level, section="zone",
                              help="auto, grow, with fe.material 'damage': an FE cell with damage >= "
                                   "this trips instead of its stress (the concrete cracked "
                                   "through there); also the post-run check's level")
     stress_every: int = key(10, integer, positive, section="zone",
                             help="auto, grow: steps between FE stress checks")
-    links_every: int = key(400, integer, positive, section="zone",
-                           help="auto, grow: steps between bridging link checks")
+    links_every: int = key(None, integer, positive, section="zone",
+                           help="auto, grow: steps between bridging link checks; default 400, "
+                                "100 with fe.material 'damage'")
     zone_margin: int = key(1, integer, positive, section="zone", name="margin",
                            help="auto, grow: cells added around the flagged ones")
     zone_ahead: float = key(1.0, number, ahead_level, section="zone", name="ahead",
@@ -177,6 +188,9 @@ class SlabSpec:
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
+        for name, value in BAND_CHECK[self.fe_material].items():
+            if getattr(self, name) is None:
+                setattr(self, name, value)
         if self.fe_material == "damage":
             self._check_damage(material)
         if self.mpi and self.dt_safety == "auto":

@@ -45,8 +45,11 @@ def add_spec_options(p, cls):
     the description's own default applies."""
     for f in keyed_fields(cls):
         m = f.metadata
-        default = "per scale" if f.default is None else f.default
-        text = f"{m['help']} (default: {default})"
+        text = m["help"]
+        if f.default is not None:
+            text += f" (default: {f.default})"
+        elif "default" not in text:             # the help says what a None default becomes
+            text += " (default: per scale)"
         flag = option(f.name)
         if m["kind"] is boolean:
             p.add_argument(flag, action=argparse.BooleanOptionalAction, default=None, help=text)
