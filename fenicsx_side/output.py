@@ -42,7 +42,6 @@ class XdmfSeries:
             raise ValueError(f"XDMF series path must end in .xdmf, got {str(self.path)!r}")
         self.model = model
         self.folder = self.path.with_suffix("")
-        self.folder.mkdir(parents=True, exist_ok=True)
         self._xml = ET.Element("Xdmf", Version="3.0")
         domain = ET.SubElement(self._xml, "Domain")
         nv = model.cell_nodes.shape[1]
@@ -52,8 +51,10 @@ class XdmfSeries:
         topology = ET.Element("Topology", TopologyType=name, NumberOfElements=str(len(cells)),
                               NodesPerElement=str(nv))
         geometry = ET.Element("Geometry", GeometryType="XYZ")
-        self._write_h5("mesh.h5", {"topology": (topology, cells.astype(np.int64)),
-                                   "geometry": (geometry, model.nodes)})
+        # written with the first frame: a series that gets none (a grown zone that ends
+        # before the next output) leaves no file
+        self._mesh_items = {"topology": (topology, cells.astype(np.int64)),
+                            "geometry": (geometry, model.nodes)}
         self._mesh = (topology, geometry)     # copied into every frame
         self._series = ET.SubElement(domain, "Grid", Name="fe", GridType="Collection",
                                      CollectionType="Temporal")
@@ -88,6 +89,10 @@ class XdmfSeries:
         self.close()
 
     def _frame(self, t, fields, written=False):
+        if self._mesh_items is not None:
+            self.folder.mkdir(parents=True, exist_ok=True)
+            self._write_h5("mesh.h5", self._mesh_items)
+            self._mesh_items = None
         grid = ET.SubElement(self._series, "Grid", Name=f"step{self._steps}", GridType="Uniform")
         grid.extend(copy.deepcopy(self._mesh))
         ET.SubElement(grid, "Time", Value=repr(float(t)))

@@ -59,6 +59,12 @@ def check_series(path, m, cell, written):
             assert np.array_equal(cell_data["max_principal"][0].ravel(), stress.max_principal)
 
 
+def test_a_series_without_frames_leaves_no_file(tmp_path):
+    m = ElasticModel(box_mesh((0, 0, 0), (1, 1, 1), (1, 1, 1)), 31e9, 0.2, 2400.0)
+    XdmfSeries(tmp_path / "fe.xdmf", m).close()
+    assert not list(tmp_path.iterdir())
+
+
 def test_series_path_and_fields_are_checked(tmp_path):
     m = ElasticModel(box_mesh((0, 0, 0), (1, 1, 1), (1, 1, 1)), 31e9, 0.2, 2400.0)
     with pytest.raises(ValueError, match="must end in .xdmf"):
