@@ -211,13 +211,13 @@ def find_offset(links, sample=None):
     list: the layout is the class's, the same in every link). Links at rest can hold a block
     (mostly zeros) that matches at several places; the offset this YADE version's layout was
     verified at (HISTORY_OFFSET) then decides. Once found on `sample` or more links, the
-    offset is the class's for this process: later calls verify it on a few of their links
-    (_REVERIFY) and search again only if they disagree. CheckpointError if it cannot be
-    found."""
+    offset is the class's for this process: later sampled calls verify it on a few of their
+    links (_REVERIFY) and search again only if they disagree; a call without `sample` (a
+    checkpoint) verifies every link. CheckpointError if it cannot be found."""
     global _found
     if not links:
         return None
-    if _found is not None:
+    if _found is not None and sample is not None:
         few = links[::-(-len(links) // _REVERIFY)]
         if all(same_bits(history_block(i.phys, _found), history_values(i.phys)) for i in few):
             return _found
