@@ -163,9 +163,8 @@ def continued_gaps(ref, radius, free, zero, old_motion, covered, fe_motion):
     from scipy.sparse import coo_matrix, diags
     from scipy.sparse.linalg import spsolve
     from yade_side.scene import INTERACTION_RADIUS
-    out = np.zeros((len(free), 6))
     if len(free) == 0:
-        return out
+        return np.zeros((0, 6))
     tree = cKDTree(ref)
     near = tree.query_ball_point(ref[free], INTERACTION_RADIUS * 2 * radius.max())
     a = np.repeat(free, [len(n) for n in near])
@@ -184,7 +183,7 @@ def continued_gaps(ref, radius, free, zero, old_motion, covered, fe_motion):
         u, v = old_motion(old)
         fu, fv = fe_motion(old)
         known[old] = np.hstack([u - fu, v - fv])
-    keep = is_free[b] | np.isin(b, old) | is_new[b]
+    keep = is_new[b] | np.isin(b, old)
     a, b = a[keep], b[keep]
     row = np.full(len(ref), -1)
     row[free] = np.arange(len(free))
