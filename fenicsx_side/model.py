@@ -433,6 +433,7 @@ class ElasticModel:
     def _interpolated(self, weight):
         f = fem.Function(fem.FunctionSpace(self.msh, ("Lagrange", 1)))
         f.interpolate(lambda x: weight(x.T))
+        f.x.scatter_forward()     # ghost nodes of cells another rank owns are set there only
         if not np.all(f.x.array > 0):
             raise ValueError(f"FE weight must be > 0 at every node, got min {f.x.array.min()!r}")
         return f

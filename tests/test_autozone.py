@@ -52,7 +52,7 @@ def test_uniaxial_stretch_trips_at_the_first_check_past_ft():
     zone = np.zeros(grid.shape, bool)
     zone[0, 0] = True
     m = StretchedBlock(zone, uniaxial(0.7e-5))
-    watch = Watch(m, grid, FT, TripLevels(stress_every=3))
+    watch = Watch(m, grid, FT, TripLevels(stress=1.0, stress_every=3))
     with pytest.raises(Tripped) as e:
         steps(m, 0)
     assert e.value.step == 15 and watch.steps == 15
@@ -61,7 +61,7 @@ def test_uniaxial_stretch_trips_at_the_first_check_past_ft():
     assert np.array_equal(e.value.cells, ~zone)
     # the same stretch below the level never trips
     m = StretchedBlock(zone, uniaxial(0.6e-5 / 30))
-    Watch(m, grid, FT, TripLevels(stress_every=3))
+    Watch(m, grid, FT, TripLevels(stress=1.0, stress_every=3))
     assert steps(m, 0) == {"attempt": 0}
 
 
@@ -86,7 +86,7 @@ def test_an_fe_that_damages_trips_on_its_damage_not_its_stress():
     m.step = damaging_step
     ef = law.softening_strain(0.2)
     expected = next(n for n in range(2, 40, 2) if law.damage(n * 1e-4, ef) >= 0.9)
-    watch = Watch(m, grid, FT, TripLevels(stress_every=2))
+    watch = Watch(m, grid, FT, TripLevels(stress=1.0, stress_every=2))
     with pytest.raises(Tripped) as e:
         steps(m, 0)
     assert e.value.step == expected
@@ -104,7 +104,7 @@ def test_zone_grows_over_the_flagged_cells_and_margin_then_runs_clean():
     start[0, 0] = True
     kink = lambda x: np.column_stack([1e-4 * np.maximum(x[:, 0] - 0.8, 0), 0 * x[:, :2]])
     outcome = find_zone(lambda zone: StretchedBlock(zone, kink), steps, grid, start,
-                        np.ones(grid.shape, bool), FT, TripLevels(stress_every=1),
+                        np.ones(grid.shape, bool), FT, TripLevels(stress=1.0, stress_every=1),
                         log=lambda line: None)
     lam_2mu = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
     expected = start.copy()
@@ -163,7 +163,7 @@ def test_budget_stops_the_search_before_the_next_attempt():
     kink = lambda x: np.column_stack([1e-4 * np.maximum(x[:, 0] - 0.8, 0), 0 * x[:, :2]])
     seen, lines = [], []
     outcome = find_zone(lambda zone: StretchedBlock(zone, kink), steps, grid, start,
-                        np.ones(grid.shape, bool), FT, TripLevels(stress_every=1),
+                        np.ones(grid.shape, bool), FT, TripLevels(stress=1.0, stress_every=1),
                         log=lines.append,
                         budget=lambda attempts: seen.append(len(attempts)) or "too dear")
     assert seen == [1] and outcome.status == "limit" and outcome.limit == "cost"
@@ -232,9 +232,13 @@ def test_slab_refuses_bad_auto_zone_options(options, message):
 def test_slab_limit_default_leaves_band_and_a_cell_before_the_supports():
     from cases.slab import SlabSpec
     from cases.slab.zone import check
-    spec = SlabSpec(zone="auto")
-    base, start, limit, _ = check(spec)
+    # the default: one band layer, the start a 0.5 m box (3 x 4 cells of 1/6 m)
+    base, start, limit, _ = check(SlabSpec(zone="auto"))
     assert limit.shape == (15, 12)
+    assert np.flatnonzero(limit.any(axis=1)).tolist() == list(range(2, 13)) and limit[2:13].all()
+    assert np.argwhere(start).tolist() == [[i, j] for i in range(6, 9) for j in range(4, 8)]
+    # three layers: the strip leaves columns 0-3 and 11-14; a 0.6 m full-width start
+    base, start, limit, _ = check(SlabSpec(zone="auto", de_zone=0.6, full_width=True, layers=3))
     assert np.flatnonzero(limit.any(axis=1)).tolist() == list(range(4, 11)) and limit[4:11].all()
     assert np.array_equal(np.argwhere(start.any(axis=1)).ravel(), np.arange(5, 10)) and start[5:10].all()
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-COMMAND = ["slab", "--model", "coupled", "--scale", "small", "--steps", "60",
+COMMAND = ["slab", "--model", "coupled", "--zone", "box", "--scale", "small", "--steps", "60",
            "--output-every", "60", "--quiet"]
 
 

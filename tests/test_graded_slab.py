@@ -11,11 +11,14 @@ from cases.slab import SlabModel, SlabSpec
 from cases.slab.geometry import GROWTH, fe_axes, slab_grid
 from cases.slab.scales import SLAB
 
+# the small slab's full-width strip with three layers, the geometry these figures are for
+STRIP = dict(de_zone=0.6, full_width=True, layers=3)
+
 
 @pytest.fixture(scope="module")
 def models():
     """Built only (the YADE scene is the last one's): their geometry, FE parts and sensors."""
-    return {br: SlabModel(SlabSpec(scale="small", band_ratio=br, steps=60), "coupled")
+    return {br: SlabModel(SlabSpec(scale="small", band_ratio=br, steps=60, **STRIP), "coupled")
             for br in (None, 2.0)}
 
 
@@ -23,7 +26,7 @@ def test_graded_grid_band_cells_growth_and_planes():
     """Small scale: grid h = 1/6 m, band cells 2 × 2 × 0.025 = 0.1 m; along x three of them on
     each side of the zone (0.833-1.667 m) end on grid planes, then cells grow by ≤ 1.2 to ≤ h;
     y (the zone spans the width) stays uniform."""
-    spec = SlabSpec(scale="small", band_ratio=2.0)
+    spec = SlabSpec(scale="small", band_ratio=2.0, **STRIP)
     g = slab_grid(spec)
     xs, ys, zs = fe_axes(g)
     assert g.band_h == pytest.approx(0.1, rel=1e-15) and g.axes == (0,)
@@ -83,7 +86,8 @@ def test_before_the_wave_reaches_the_band_graded_and_uniform_runs_agree(tmp_path
     from cases.slab.model import run_built
     runs = {}
     for br in (None, 2.0):               # one YADE scene per process: build, then run
-        m = SlabModel(SlabSpec(scale="small", band_ratio=br, dt_safety=0.3, steps=30), "coupled")
+        m = SlabModel(SlabSpec(scale="small", band_ratio=br, dt_safety=0.3, steps=30,
+                              **STRIP), "coupled")
         (tmp_path / str(br)).mkdir()
         runs[br] = run_built(m, tmp_path / str(br), quiet=True)
     e = {br: np.array(r["energy"])[:, 1] for br, r in runs.items()}

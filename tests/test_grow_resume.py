@@ -35,7 +35,7 @@ from yade_side.output import read_series
 # step 200 is taken after the conversion of that step
 GROW = ["slab", "--model", "coupled", "--scale", "small", "--impactor-speed", "40",
         "--zone", "grow", "--zone-start", "0.5", "--layers", "1", "--fe-material", "damage",
-        "--links-every", "100", "--trip-omega", "1", "--steps", "260",
+        "--links-every", "100", "--trip-omega", "1", "--trip-damage", "0.9", "--steps", "260",
         "--checkpoint-every", "100", "--output-every", "50", "--threads", "1", "--quiet"]
 STOP_AT = 200
 

@@ -31,7 +31,7 @@ def test_bars_are_cut_at_the_zone_where_the_weights_bend():
     within [lo − w, hi + w] (one piece: one chain), its FE part the bar outside (lo, hi), cut
     where α and β bend (s = 0, f w, (1 − f) w, w); a y bar lies in the DE part if its depth is
     at most w, in the FE part if it is at least 0."""
-    spec = SlabSpec(reinforced=True)
+    spec = SlabSpec(reinforced=True, de_zone=0.6, full_width=True, layers=3)
     grid = slab_grid(spec)
     bridging = slab_bridging(spec, grid)
     lo, hi, w, f = grid.hole_lo[0], grid.hole_hi[0], bridging.width, WEIGHT_FLOOR

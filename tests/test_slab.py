@@ -16,8 +16,10 @@ def runs(tmp_path_factory):
     for model, extra in (("full", []), ("coupled", []),
                          ("coupled", ["--fe-material", "damage"])):
         folder = root / "-".join([model] + extra[1:])
+        zone = ["--zone", "box"] if model == "coupled" else []   # a fixed zone's outputs
         assert main(["slab", "--model", model, "--scale", "small", "--steps", str(STEPS),
-                     "--output-every", "150", "--out", str(folder), "--quiet", *extra]) == 0
+                     "--output-every", "150", "--out", str(folder), "--quiet", *zone,
+                     *extra]) == 0
     for coupled, cmp in (("coupled", "cmp"), ("coupled-damage", "cmp-damage")):
         assert main(["compare", str(root / "full"), str(root / coupled),
                      "--out", str(root / cmp)]) == 0
@@ -175,10 +177,10 @@ def test_impactor_starts_beyond_the_link_reach_and_then_just_above_the_slab():
 
 
 def test_full_width_de_zone_is_bounded_along_x_only():
-    grid = slab.slab_grid(slab.SlabSpec(scale="small"))
+    grid = slab.slab_grid(slab.SlabSpec(scale="small", full_width=True))
     assert grid.axes == (0,)
     assert grid.hole_lo[1] == 0 and grid.hole_hi[1] == slab.SLAB[1]
-    boxed = slab.slab_grid(slab.SlabSpec(scale="small", full_width=False))
+    boxed = slab.slab_grid(slab.SlabSpec(scale="small"))
     assert boxed.axes == (0, 1) and 0 < boxed.hole_lo[1] < boxed.hole_hi[1] < slab.SLAB[1]
 
 
@@ -188,7 +190,8 @@ def test_consistent_weighting_puts_alpha_and_beta_inside_both_models():
     linear ramp, plus the 0.01 floor at the band's inner nodes (a hat of height 0.01 over the
     first element layer: 0.01 h/2 per unit area); every bridging sphere's YADE mass is β × its
     own (mass / (β r³) the same for all); the coupling then takes α = β = 1."""
-    spec = slab.SlabSpec(scale="small", weighting="consistent")
+    spec = slab.SlabSpec(scale="small", de_zone=0.6, full_width=True, layers=3,
+                         weighting="consistent")
     m = slab.SlabModel(spec, "coupled")
     g = m.grid
     thickness, width = slab.SLAB[2], slab.SLAB[1]

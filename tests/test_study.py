@@ -423,6 +423,7 @@ def test_an_interrupted_run_of_the_study_carries_on_from_its_checkpoint(tmp_path
     r = sp.Planned(sp.Config("small", 40.0, "coupled"), 1, 60)
     folder = tmp_path / r.folder
     assert main(["slab", "--model", "coupled", "--scale", "small", "--steps", "60",
+                 "--zone", "box", "--de-zone", "0.6", "--full-width", "--layers", "3",
                  "--checkpoint-every", "20", "--out", str(folder), "--quiet"]) == 0
     _, _, whole = read_sensors(folder / "sensors.csv")
     for name in ("summary.json", "sensors.csv", "damage.npz"):

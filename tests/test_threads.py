@@ -63,7 +63,8 @@ def test_side_by_side_batch_runs_take_one_thread_each(tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_ensemble_members_are_bit_identical_to_single_runs(tmp_path):
     env = dict(os.environ, DEM_FEM_CACHE=str(tmp_path / "cache"))
-    common = ["slab", "--model", "coupled", "--steps", "40", "--output-every", "40", "--quiet"]
+    common = ["slab", "--model", "coupled", "--zone", "box", "--steps", "40", "--output-every",
+              "40", "--quiet"]
     run = lambda *a: subprocess.run([sys.executable, "-m", "cli", *common, *a],
                                     env=env, cwd=ROOT, check=True, capture_output=True)
     run("--seeds", "1,2", "--out", str(tmp_path / "ens"))

@@ -21,16 +21,23 @@ SCHEMA["reinforcement"] = [{
 
 
 def check(data, folder, problems):
-    """The layout of the bars (outside the concrete, crossing layers, ...), one line each."""
+    """The layout of the bars (outside the concrete, crossing layers, ...) and a zone the
+    model can have, one line each."""
     try:
         checked_layers(data["reinforcement"], False)
+    except ValueError as e:
+        problems.append(str(e))
+    try:
+        SlabSpec.zone_for(data["slab"]["model"], data["slab"].get("zone"), "slab.zone =")
     except ValueError as e:
         problems.append(str(e))
 
 
 def spec(case):
     """The SlabSpec of a slab case (keys left out keep SlabSpec's defaults)."""
-    return spec_from_case(SlabSpec, case.data, reinforcement=case.data["reinforcement"])
+    zone = SlabSpec.zone_for(case["slab"]["model"], case["slab"].get("zone"), "slab.zone =")
+    data = {**case.data, "slab": {**case.data["slab"], "zone": zone}}
+    return spec_from_case(SlabSpec, data, reinforcement=case.data["reinforcement"])
 
 
 def run(case, out, force=False, quiet=False, resume=False):

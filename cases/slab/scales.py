@@ -31,11 +31,14 @@ class Scale:
 #   GPa with the sets before, whose uniaxial E was 26.5 and 29.6 GPa on today's packings);
 #   12.5 diameters like 24.9 GPa (paper: measured with the set before the refit, whose E on
 #   today's packing was 31.9 GPa, now 31.0: not measured again yet);
-# - de_zone, full_width: at 40 m/s damage reaches the free edges y = 0, 2 within 5 ms (the full
-#   slab's damage map, `compare`'s damage plots), so the small and medium default is a
-#   full-width strip. At paper scale no zone that pays holds the 40 m/s damage: the default is
-#   the zone the map found within the full model's scatter at 10 m/s, a 0.5 m box with one
-#   bridging layer, ~9 × fewer spheres (docs/where-coupling-pays.md, docs/slab.md).
+# - de_zone, full_width, layers: a 0.5 m box under the impact with one bridging layer at every
+#   scale, the zone the run grows from by default (`--zone grow`, docs/auto-zone.md) and the
+#   fixed zone of `--zone box`: at small scale it was within the full model's scatter at 10
+#   and 20 m/s, 3.0-4.6 x per step (docs/auto-zone.md, "Trip levels against the ensembles"),
+#   ~9 x fewer spheres at paper scale (docs/where-coupling-pays.md). At 40 m/s damage reaches
+#   the free edges y = 0, 2 within 5 ms: the grown zone says that coupling cannot pay. The
+#   full-width strips of the map (docs/where-coupling-pays.md) are `--de-zone 0.6` (small),
+#   `0.9` (medium) `--full-width --layers 3`.
 # - steps: the full slab at 10 m/s (seed 1) sinks to its first peak at 5.2 ms under the
 #   impact and 6.0 ms at the far sensors (small), 5.2 and 4.7 ms (medium), and is back to half
 #   of it by 6.7 and 6.9 ms: 7 ms holds both (`slab --model full --impactor-speed 10 --steps
@@ -43,8 +46,8 @@ class Scale:
 #   not rebound: under the impact it sinks 170 mm by 14 ms, the far sensors 4-8 mm, still
 #   going down. The paper scale keeps a short default (a full member is hours): give --steps.
 SCALES = {
-    "small": Scale(0.025, 4950, 20.2e9, 0.6, True, 3),
-    "medium": Scale(0.0185, 6400, 22.6e9, 0.9, True, 3),
+    "small": Scale(0.025, 4950, 20.2e9, 0.5, False, 1),
+    "medium": Scale(0.0185, 6400, 22.6e9, 0.5, False, 1),
     "paper": Scale(0.0112, 300, 24.9e9, 0.5, False, 1),
 }
 # the table's steps are at this × the critical step: the duration is what is kept

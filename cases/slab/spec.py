@@ -9,17 +9,9 @@ from orchestrator.casefile import (boolean, check_spec, choice, integer, non_neg
                                    safety_range, spec_key as key, step_count)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.run.autozone import ahead_level, damage_level, omega_level, stress_level
+from orchestrator.run.autozone import (TripLevels, ahead_level, damage_level, omega_level,
+                                       stress_level)
 from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY, concrete_set
-
-# The band-link indicator's defaults per FE material. With an elastic FE a partly damaged band
-# link means the crack reaches what the FE cannot follow. A damaging FE follows partial
-# damage (its own indicator trips at trip_damage): there a broken band link trips, checked
-# every 100 steps; with 0.1 or 0.5 every 400 or 100 steps the small slab's grown zone reached
-# its limit at 10, 20 and 40 m/s on seeds 1-3, where with these it is within the full scatter
-# at 10 and 20 m/s (docs/auto-zone.md, "Trip levels against the ensembles").
-BAND_CHECK = {"elastic": {"trip_omega": 0.1, "links_every": 400},
-              "damage": {"trip_omega": 1.0, "links_every": 100}}
 
 
 @dataclass
@@ -40,10 +32,12 @@ class SlabSpec:
     elastic_outside: bool = key(False, boolean,
                                 help="full model: links outside the coupled model's DE zone "
                                      "never damage, as the coupled model assumes")
-    zone: str = key("box", choice("box", "auto", "grow"),
-                    help="DE zone: 'box' (de_zone, full_width); 'auto': grown by the coupled "
-                         "run's own checks, each time run again from t = 0; 'grow': grown "
-                         "by the same checks during the run (docs/auto-zone.md)")
+    zone: str = key(None, choice("box", "auto", "grow"),
+                    help="the coupled model's DE zone: 'grow': from the box zone (de_zone, "
+                         "full_width), grown during the run where its checks trip "
+                         "(docs/auto-zone.md); 'box': that zone, fixed; 'auto': grown by the "
+                         "same checks, each time run again from t = 0; default 'grow', 'box' "
+                         "for what a grown zone cannot carry (bars, a graded band, zone cells)")
     zone_start: float = key(None, number, positive, section="zone", name="start",
                             help="auto, grow: side (m) of a square start zone under the impact, "
                                  "rounded to the FE grid; default the box zone")
@@ -54,25 +48,24 @@ class SlabSpec:
     fallback: str = key("none", choice("none", "full"), section="zone",
                         help="auto, grow: when the zone would pass its limit, stop ('none') or run "
                              "the full model ('full')")
-    trip_stress: float = key(1.0, number, stress_level, section="zone",
-                             help="auto, grow: an FE cell with σ1 >= this × ft trips (the FE cannot "
-                                  "crack)")
-    trip_omega: float = key(None, number, omega_level, section="zone",
+    trip_stress: float = key(TripLevels.stress, number, stress_level, section="zone",
+                             help="auto, grow, with fe.material 'elastic': an FE cell with σ1 >= "
+                                  "this × ft trips (the FE cannot crack; 1 is the paper's check, "
+                                  "which the post-run check keeps)")
+    trip_omega: float = key(TripLevels.omega, number, omega_level, section="zone",
                             help="auto, grow: a bridging link with damage >= this trips (the "
-                                 "coupling assumes an elastic band); default 0.1, 1 (a broken "
-                                 "link) with fe.material 'damage'")
-    trip_damage: float = key(0.9, number, damage_level, section="zone",
+                                 "coupling assumes an elastic band; 1: a broken link)")
+    trip_damage: float = key(TripLevels.damage, number, damage_level, section="zone",
                              help="auto, grow, with fe.material 'damage': an FE cell with damage >= "
                                   "this trips instead of its stress (the concrete cracked "
                                   "through there); also the post-run check's level")
-    stress_every: int = key(10, integer, positive, section="zone",
+    stress_every: int = key(TripLevels.stress_every, integer, positive, section="zone",
                             help="auto, grow: steps between FE stress checks")
-    links_every: int = key(None, integer, positive, section="zone",
-                           help="auto, grow: steps between bridging link checks; default 400, "
-                                "100 with fe.material 'damage'")
-    zone_margin: int = key(1, integer, positive, section="zone", name="margin",
+    links_every: int = key(TripLevels.links_every, integer, positive, section="zone",
+                           help="auto, grow: steps between bridging link checks")
+    zone_margin: int = key(TripLevels.margin, integer, positive, section="zone", name="margin",
                            help="auto, grow: cells added around the flagged ones")
-    zone_ahead: float = key(1.0, number, ahead_level, section="zone", name="ahead",
+    zone_ahead: float = key(TripLevels.ahead, number, ahead_level, section="zone", name="ahead",
                             help="auto, grow: when an indicator trips, the cells past this × "
                                  "its level are flagged too (fewer, larger growths); 1: only "
                                  "those that tripped")
@@ -171,6 +164,9 @@ class SlabSpec:
         from cases.slab.reinforced import layers
         self.reinforcement = layers(self)
         self.reinforced = bool(self.reinforcement)
+        if self.zone is None:
+            fixed = self.reinforced or self.band_ratio is not None or self.zone_cells is not None
+            self.zone = "box" if fixed else "grow"
         table = SCALES[self.scale]
         material = concrete_set(self.scale, self.concrete)
         if material is None:
@@ -188,9 +184,6 @@ class SlabSpec:
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
-        for name, value in BAND_CHECK[self.fe_material].items():
-            if getattr(self, name) is None:
-                setattr(self, name, value)
         if self.fe_material == "damage":
             self._check_damage(material)
         if self.mpi and self.dt_safety == "auto":
@@ -223,6 +216,18 @@ class SlabSpec:
                                     f"the goal at ratio {ratio:.3g}, n_b = {self.layers}, dt = "
                                     f"{self.dt_safety:g} × critical, {self.variant}, "
                                     f"{self.weighting} (docs/wave1d.md)")
+
+    @staticmethod
+    def zone_for(model, zone, name):
+        """The zone of a `model` run given `zone` as the option or key `name` (None: not
+        given): the full model has no DE zone (its sensors sit where the box zone's would), so
+        a zone found by the coupled model's checks is refused there (ValueError, one line)."""
+        if model != "full":
+            return zone
+        if zone not in (None, "box"):
+            raise ValueError(f"{name} {zone} finds the DE zone of a coupled model: the full "
+                             f"model has none (run it as the coupled model)")
+        return "box"
 
     @property
     def cpm(self):

@@ -8,8 +8,9 @@ validate`'s medium 40 m/s ensembles are reused). Medium scale, plain concrete, i
 - the automatic-zone coupled model on seed 1; on seeds 2 and 3 when seed 1 ends clean (a
   search that reaches its limit says that coupling cannot pay for the impact; another seed
   would spend the failed search again);
-- the scale's default DE zone (n_b = 3) on seed 1, and the same zone with a graded FE mesh
-  (band cells of GRADED_BAND sphere diameters, `SlabSpec.band_ratio`);
+- the study's DE zone (STUDY_ZONE: the full-width strip, n_b = 3) on seed 1, and the same
+  zone with a graded FE mesh (band cells of GRADED_BAND sphere diameters,
+  `SlabSpec.band_ratio`);
 - at SWEEP_VELOCITY only, on seed 1: the fixed zones × n_b = 1, 2, 3: the default strip, a
   larger strip and a small box (the cheap end of the map: no full-width strip can be 5x
   cheaper at medium scale);
@@ -44,6 +45,10 @@ SWEEP_VELOCITY = 10.0     # the default plan's fixed-zone × band sweep: the lea
                           # best chance for a cheap zone (at 40 m/s the medium strip misses
                           # already, docs/slab.md)
 SWEEP_LAYERS = (1, 2, 3)
+# the map's default zone and band per scale (de_zone, full_width, layers), where its full
+# members' sensors sit: the full-width strip with three layers (the slab's default before the
+# grown 0.5 m box); paper scale: the slab's own default, the 0.5 m box with one layer
+STUDY_ZONE = {"small": (0.6, True, 3), "medium": (0.9, True, 3)}
 # the larger fixed zone per scale: a full-width strip midway between the default and the
 # auto-zone limit (1.7 m at medium: the slab less the 3-layer band and one FE cell per support)
 LARGER_ZONE = {"small": 1.2, "medium": 1.3}
@@ -82,9 +87,9 @@ class Config:
     velocity: float
     model: str                  # "full" | "coupled"
     zone: str = "box"           # "box" | "auto"
-    de_zone: float = None       # m; None: the scale's
-    full_width: bool = None     # None: the scale's
-    layers: int = None          # None: the scale's
+    de_zone: float = None       # m; None: the study's (STUDY_ZONE)
+    full_width: bool = None     # None: the study's (STUDY_ZONE)
+    layers: int = None          # None: the study's (STUDY_ZONE)
     band_ratio: float = None    # a graded FE mesh's band cells / sphere diameter (None: uniform)
     reinforced: bool = False    # the default bar mesh (docs/reinforcement.md)
     fe_material: str = "elastic"  # or "damage" (docs/fe-damage.md)
@@ -115,14 +120,14 @@ class Config:
         return f"{self.group}/{self.name}"
 
     def defaults(self):
-        """The spec with the scale's defaults filled in (seed 1)."""
+        """The spec with the study's and the scale's defaults filled in (seed 1)."""
         return self.spec(1)
 
     def spec(self, seed, steps=None):
         return _spec(self, seed, steps)
 
     def same_layout_as_full(self):
-        """Its sensors sit where the full model's own ones do (the scale's zone and band)."""
+        """Its sensors sit where the full model's own ones do (the study's zone and band)."""
         if self.model == "full":
             return True
         if self.zone == "auto":
@@ -138,10 +143,12 @@ def _spec(config, seed, steps):
     callers do not change it)."""
     c = config
     values = dict(scale=c.scale, seed=seed, impactor_speed=c.velocity, steps=steps,
-                  reinforced=c.reinforced)
+                  reinforced=c.reinforced, zone="box",
+                  **dict(zip(("de_zone", "full_width", "layers"), STUDY_ZONE.get(c.scale, ()))))
     if c.model == "coupled":
-        values.update(zone=c.zone, de_zone=c.de_zone, full_width=c.full_width, layers=c.layers,
-                      band_ratio=c.band_ratio, fe_material=c.fe_material)
+        values.update({k: v for k, v in dict(
+            zone=c.zone, de_zone=c.de_zone, full_width=c.full_width, layers=c.layers,
+            band_ratio=c.band_ratio, fe_material=c.fe_material).items() if v is not None})
     return SlabSpec(**{k: v for k, v in values.items() if v is not None})
 
 

@@ -39,11 +39,10 @@ def run(args):
         if args.seeds and args.seed is not None:
             raise ValueError("give either --seed or --seeds, not both")
         cells = _zone_cells(args.zone_from) if args.zone_from else None
-        spec, model = spec_from_args(slab.SlabSpec, args, zone_cells=cells), args.model
+        model = args.model
+        args.zone = slab.SlabSpec.zone_for(model, args.zone, "--zone")
+        spec = spec_from_args(slab.SlabSpec, args, zone_cells=cells)
         slab.model.check_ranks(spec, model)     # before mpiexec starts
-        if model == "full" and spec.zone != "box":
-            raise ValueError(f"--zone {spec.zone} finds the DE zone of a coupled model: the full "
-                             f"model has none (run it with --model coupled)")
         folder.check_out(args.out, args.force)      # refuse before building, not after
     else:
         raise ValueError("give --model full|coupled and --out DIR for a new run, or --resume DIR")
@@ -66,6 +65,9 @@ def run(args):
         # under mpirun the FE model is distributed; YADE and the coupling stay on rank 0
         if model != "coupled":
             raise ValueError(f"--model {model} has no FE part: run it without mpirun")
+        if args.zone is None and not args.resume:
+            from dataclasses import replace      # the FE is distributed once: a fixed zone
+            spec = replace(spec, zone="box")
         if spec.zone != "box" or spec.dt_safety == "auto":
             raise ValueError(f"--zone {spec.zone} and --dt-safety auto build the model more "
                              f"than once: run them without mpirun")
