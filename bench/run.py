@@ -70,6 +70,7 @@ def measure(plan):
             "coupled": worker(dict(base, model="coupled", output=True,
                                    variants=["diagonal", "full"])),
             "coupled_damage": worker(dict(base, model="coupled", spec=damage_spec(scale))),
+            "conversion": worker(dict(base, model="coupled", conversion=True)),
         }
     # OpenMP threads: the full model (YADE alone) at the largest scale below paper
     below_paper = [s for s in plan if s != "paper"]

@@ -5,7 +5,9 @@ one JSON line. Task keys: scale, model ("full" | "coupled"), warmup, steps, opti
 (the fields of a SlabSpec, instead of the scale's defaults) and zone_cells (a DE zone of
 in-plane grid cells), impact_after_s (a second window of `steps` steps that starts this long
 after the start, during the impact), and for the coupled model `variants` (coupling variants
-to time, e.g. ["diagonal", "full"]) and `output` (time the run loop's output work).
+to time, e.g. ["diagonal", "full"]) and `output` (time the run loop's output work); with
+`conversion` (model "coupled"), instead: the default grown zone's cost of one conversion
+(conversion_cost).
 """
 import json
 import math
@@ -125,6 +127,8 @@ def run(task):
     threads = int(os.environ.get("OMP_NUM_THREADS", "1"))
     import_yade(threads=threads)
     use_clock(threads)
+    if task.get("conversion"):
+        return conversion_cost(task)
     spec = SlabSpec(**task["spec"]) if "spec" in task else SlabSpec(scale=task["scale"])
     t0 = perf_counter()
     m = SlabModel(spec, task["model"], _zone(spec, task.get("zone_cells")))
@@ -151,6 +155,33 @@ def run(task):
                 result["variants"][variant] = _time_variant(m, variant, task)
     result["peak_rss_end_bytes"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     return result
+
+
+def conversion_cost(task):
+    """One conversion of the default zone grown during the run (cases.slab.grow), its start
+    zone and the margin's ring of cells around it, `warmup` steps into the run (before the
+    impactor's contact: what a conversion costs does not depend on the damage), timed on the
+    clock and against the median step of the grown model (`steps` steps after it): the
+    conversion's cost in steps of the model it makes."""
+    from cases.slab import SlabSpec
+    from cases.slab.grow import growing_model
+    from orchestrator.run.autozone import Tripped
+    m, _ = growing_model(SlabSpec(**task.get("spec", {"scale": task["scale"]})),
+                         log=lambda line: None)
+    for _ in range(task["warmup"]):
+        m.step()
+    before = m.sphere_count()
+    c0 = clock()
+    m.grow(Tripped(m.steps, "bench: the start zone's ring", m.zone.copy()))
+    seconds = clock() - c0
+    record = m.conversions[-1]
+    timing = timed_steps(m, 2, task["steps"])
+    return {"task": task, "spheres_before": before, "spheres_after": m.sphere_count(),
+            "conversion_s": seconds, "build_wall_s": record["build_s"],
+            "wall_s": record["wall_s"], "grown_step_s": timing["median_s"],
+            "conversion_steps": seconds / timing["median_s"],
+            "peak_rss_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+            "timing": timing}
 
 
 def _zone(spec, cells):

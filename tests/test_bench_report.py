@@ -98,6 +98,24 @@ def test_the_fe_with_damage_is_judged_in_the_impact_window():
     assert "| paper | coupled, FE damage | 20,000 | 8,000 |" in table
 
 
+def test_a_conversion_is_judged_in_steps_of_the_grown_model():
+    """0.6 s for a conversion whose grown model steps in 0.05 s: 12 steps, over the 10 of the
+    goal; 0.4 s: 8, within it; both in the table."""
+    r = raw(coupled_peak_gb=0.5)
+    for seconds, steps, met in ((0.6, 12, False), (0.4, 8, True)):
+        r["scales"]["paper"]["conversion"] = {
+            "spheres_before": 12_000, "spheres_after": 20_000, "conversion_s": seconds,
+            "build_wall_s": 0.3, "wall_s": seconds, "grown_step_s": 0.05,
+            "conversion_steps": seconds / 0.05}
+        d = derive(r)
+        g = goal(d, "a conversion of the grown zone <= 10 steps")
+        assert g["met"] is met and g["figure"].startswith(f"{steps} steps ({seconds:.2f} s, 12,000")
+        table = markdown(dict(d, raw=r, mode="full", date_utc="today", bench_wall_s=60.0,
+                              machine_at_start={"cpus": 2, "load_average": (0.1, 0, 0)},
+                              machine_at_end={"load_average": (0.2, 0, 0)}))
+        assert f"| paper | 12,000 | 20,000 | {seconds:.2f} | 0.30 | 50.00 | {steps} |" in table
+
+
 def test_goals_without_paper_scale_are_labelled_and_memory_not_judged():
     r = raw(coupled_peak_gb=0.5)
     r["scales"]["medium"] = r["scales"].pop("paper")

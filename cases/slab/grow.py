@@ -28,18 +28,12 @@ from orchestrator.run.autozone import plot_zones
 from orchestrator.run.grow import GrowingModel, ZoneLimit
 
 
-def run_grow(spec, out, quiet=False, resume=False, inputs=None):
-    """The coupled slab with a zone grown during the run; returns the summary written in
-    `out`; resume: carry on from the checkpoint in `out` (`inputs`: what the results depend
-    on, orchestrator.run.inputs; a resumed run must have the same)."""
-    from orchestrator.run.inputs import spec_inputs
+def growing_model(spec, resumed=None, log=print):
+    """The GrowingModel of `spec`'s zone grown during the run, its first model built (with
+    `resumed`, a checkpoint's growth, the model of its last zone), and the full model's
+    spheres (slab and impactor), against which its budget counts."""
     base, start, limit, levels = check(spec)
-    grid = cell_grid(base)
-    dt = None                   # every zone's model takes the first one's time step
-    inputs = spec_inputs(spec, "coupled") if inputs is None else inputs
-    resumed = resumed_growth(out, inputs, grid, start, limit) if resume else None
-    if resumed is not None:
-        dt = float(resumed.info["dt"])
+    dt = None if resumed is None else float(resumed.info["dt"])   # every zone: the first's
 
     def build(mask):
         nonlocal dt
@@ -47,13 +41,26 @@ def run_grow(spec, out, quiet=False, resume=False, inputs=None):
         dt = m.dt
         return m
 
-    say = (lambda line: None) if quiet else print
-    model = GrowingModel(build, grid, start, limit, spec.tensile_strength, levels,
-                         tol=1e-6 * spec.radius, log=say, shear=spec.grow_shear,
-                         budget=lambda segments, n: over_budget(segments, n, full_spheres,
+    full = {}
+    model = GrowingModel(build, cell_grid(base), start, limit, spec.tensile_strength, levels,
+                         tol=1e-6 * spec.radius, log=log, shear=spec.grow_shear,
+                         budget=lambda segments, n: over_budget(segments, n, full["spheres"],
                                                                 spec),
                          resumed=resumed)
-    full_spheres = len(model.scene.packs.slab_radii) + len(model.impactor_ids)
+    full["spheres"] = len(model.scene.packs.slab_radii) + len(model.impactor_ids)
+    return model, full["spheres"]
+
+
+def run_grow(spec, out, quiet=False, resume=False, inputs=None):
+    """The coupled slab with a zone grown during the run; returns the summary written in
+    `out`; resume: carry on from the checkpoint in `out` (`inputs`: what the results depend
+    on, orchestrator.run.inputs; a resumed run must have the same)."""
+    from orchestrator.run.inputs import spec_inputs
+    base, start, limit, _ = check(spec)
+    grid = cell_grid(base)
+    inputs = spec_inputs(spec, "coupled") if inputs is None else inputs
+    resumed = resumed_growth(out, inputs, grid, start, limit) if resume else None
+    model, full_spheres = growing_model(spec, resumed, (lambda line: None) if quiet else print)
     try:
         summary = run_built(model, out, quiet, resume, inputs)
         outcome, limit_reached = "clean", None
