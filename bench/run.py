@@ -25,6 +25,7 @@ PLANS = {
 }
 IMPACT_AFTER_S = 5e-4     # the second window: 0.5 ms into the run, the slab cracking under the impactor
 THREADS = (1, 2)
+CONVERSION_STEPS = 100    # steps of the grown model timed after a conversion
 TIMING_GF = 100.0         # J/m², the FE damage law's Gf where the scale has none (timing only)
 TIMEOUT_S = 1800
 # `--quick` fails when the medium coupled step is slower than bench/results.json's by more
@@ -70,7 +71,8 @@ def measure(plan):
             "coupled": worker(dict(base, model="coupled", output=True,
                                    variants=["diagonal", "full"])),
             "coupled_damage": worker(dict(base, model="coupled", spec=damage_spec(scale))),
-            "conversion": worker(dict(base, model="coupled", conversion=True)),
+            "conversion": worker(dict(base, model="coupled", conversion=True,
+                                      steps=min(steps, CONVERSION_STEPS))),
         }
     # OpenMP threads: the full model (YADE alone) at the largest scale below paper
     below_paper = [s for s in plan if s != "paper"]
