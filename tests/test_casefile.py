@@ -137,6 +137,17 @@ def test_the_slab_case_file_is_the_slab_commands_default():
                             output_every=200)
 
 
+def test_a_full_slab_case_takes_the_box_zone_and_refuses_one_the_coupled_model_finds():
+    from cases.slab.casefile import spec as slab_spec
+    case = ROOT / "cases" / "slab.toml"
+    assert slab_spec(load(case)).zone == "grow"
+    assert slab_spec(load(case, ["slab.model=full", "slab.zone=box"])).zone == "box"
+    with pytest.raises(CaseError) as e:
+        load(case, ["slab.model=full"])        # the shipped file's zone = "grow"
+    assert e.value.problems == ["slab.zone = grow finds the DE zone of a coupled model: the "
+                                "full model has none (run it as the coupled model)"]
+
+
 def test_the_wave1d_case_file_holds_the_wave1d_commands_defaults():
     """Both are Wave1DSpec's defaults: the command's options and the case file's keys are
     its fields."""

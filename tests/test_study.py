@@ -284,8 +284,9 @@ def test_the_default_plan_fits_its_budget_and_the_full_sweep_is_larger():
 
 
 def test_the_cost_model_reproduces_the_benchmark_models():
+    from cases.slab import SlabSpec
     for scale in ("small", "medium", "paper"):
-        spec = sp.Config(scale, 40.0, "coupled").defaults()
+        spec = SlabSpec(scale=scale)            # the benchmark's coupled model: the default
         b = BENCH[scale]["coupled"]
         spheres, bridging, nodes = sp.counts(spec, BENCH[scale]["full"]["n_spheres"])
         assert spheres == pytest.approx(b["n_spheres"], rel=0.03)
