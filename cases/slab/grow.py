@@ -41,14 +41,13 @@ def growing_model(spec, resumed=None, log=print):
         dt = m.dt
         return m
 
-    full = {}
     model = GrowingModel(build, cell_grid(base), start, limit, spec.tensile_strength, levels,
                          tol=1e-6 * spec.radius, log=log, shear=spec.grow_shear,
-                         budget=lambda segments, n: over_budget(segments, n, full["spheres"],
+                         budget=lambda segments, n: over_budget(segments, n, full_spheres,
                                                                 spec),
                          resumed=resumed)
-    full["spheres"] = len(model.scene.packs.slab_radii) + len(model.impactor_ids)
-    return model, full["spheres"]
+    full_spheres = len(model.scene.packs.slab_radii) + len(model.impactor_ids)
+    return model, full_spheres
 
 
 def run_grow(spec, out, quiet=False, resume=False, inputs=None):

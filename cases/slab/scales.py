@@ -33,9 +33,9 @@ class Scale:
 #   today's packing was 31.9 GPa, now 31.0: not measured again yet);
 # - de_zone, full_width, layers: a 0.5 m box under the impact with one bridging layer at every
 #   scale, the zone the run grows from by default (`--zone grow`, docs/auto-zone.md) and the
-#   fixed zone of `--zone box`: at small scale it was within the full model's scatter at 10
-#   and 20 m/s, 3.0-4.6 x per step (docs/auto-zone.md, "Trip levels against the ensembles"),
-#   ~9 x fewer spheres at paper scale (docs/where-coupling-pays.md). At 40 m/s damage reaches
+#   fixed zone of `--zone box`: at small scale, with FE damage, it was within the full model's
+#   scatter at 10 and 20 m/s, 3.0-4.6 x per step (docs/auto-zone.md, "Trip levels against the
+#   ensembles"), ~9 x fewer spheres at paper scale (docs/where-coupling-pays.md). At 40 m/s damage reaches
 #   the free edges y = 0, 2 within 5 ms: the grown zone says that coupling cannot pay. The
 #   full-width strips of the map (docs/where-coupling-pays.md) are `--de-zone 0.6` (small),
 #   `0.9` (medium) `--full-width --layers 3`.
