@@ -205,12 +205,14 @@ def test_a_fixed_zone_of_cells_is_that_zone(tmp_path):
         _zone_cells(tmp_path)
 
 
-def test_history_blocks_read_and_write_what_yades_python_view_reads():
-    """The CPM history of many links in one gather/scatter (yade_side.memory.HistoryBlocks)
-    is what Python reads of each, bit for bit, and a write is read back so."""
+def test_history_and_normal_blocks_read_and_write_what_yades_python_view_reads():
+    """The CPM history of many links in one gather/scatter (yade_side.memory.HistoryBlocks),
+    and their geometries' normals, are what Python reads of each, bit for bit, and a write
+    is read back so."""
     from yade_side import import_yade
     from yade_side.material import ConcreteParams, cpm_material
-    from yade_side.memory import HistoryBlocks, find_offset, history_values, same_bits
+    from yade_side.memory import (NORMAL_WIDTH, Blocks, HistoryBlocks, find_normal_offset,
+                                   find_offset, history_values, same_bits)
     from yade_side.packing import add_spheres
     from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
     yade = import_yade()
@@ -232,6 +234,14 @@ def test_history_blocks_read_and_write_what_yades_python_view_reads():
     values[:, 16:19] += 1e-5                       # epsT
     blocks.write(values)
     assert same_bits(values, [history_values(p) for p in phys])
+    # the geometries' normals likewise (a rotated normal: still exactly what Python reads)
+    geoms = [i.geom for i in links]
+    normals = Blocks(geoms, find_normal_offset(geoms), NORMAL_WIDTH)
+    n = normals.read()
+    assert same_bits(n, [tuple(g.normal) for g in geoms])
+    turned = n[:, [1, 2, 0]]
+    normals.write(turned)
+    assert same_bits(turned, [tuple(g.normal) for g in geoms])
 
 
 def test_affine_shear_strain_of_links():

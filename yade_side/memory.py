@@ -170,26 +170,27 @@ def history_block(phys, offset):
     return np.ctypeslib.as_array((ctypes.c_double * WIDTH).from_address(address + 8 * offset))
 
 
-class HistoryBlocks:
-    """The history blocks of a list of CpmPhys, read and written by one numpy gather/scatter
-    (a view from the lowest address to the highest; the wrappers are kept, so the C++
-    objects outlive it). Only while the scene holds those links."""
+class Blocks:
+    """Blocks of `width` doubles at `offset` in each of a list of C++ objects (their boost.python
+    wrappers), read and written by one numpy gather/scatter (a view from the lowest address to
+    the highest; the wrappers are kept, so the C++ objects outlive it). Only while the scene
+    holds those objects."""
 
-    def __init__(self, phys, offset):
-        self._phys = list(phys)
-        addresses = np.array([state_address(p) for p in self._phys], dtype=object)
+    def __init__(self, objects, offset, width):
+        self._objects = list(objects)
+        addresses = np.array([state_address(p) for p in self._objects], dtype=object)
         if any(a is None for a in addresses):
-            raise CheckpointError("cannot locate a CpmPhys in memory: unexpected boost.python "
-                                  "layout")
+            raise CheckpointError("cannot locate a YADE object in memory: unexpected "
+                                  "boost.python layout")
         addresses = addresses.astype(np.int64) + 8 * offset
         if (addresses % 8).any():
-            raise CheckpointError("a CpmPhys is not 8-byte aligned in memory")
-        self._index = np.empty((0, WIDTH), np.int64)
+            raise CheckpointError("a YADE object is not 8-byte aligned in memory")
+        self._index = np.empty((0, width), np.int64)
         self._view = np.empty(0)
         if len(addresses):
             base = int(addresses.min())
-            span = int(addresses.max() - base) // 8 + WIDTH
-            self._index = (addresses - base)[:, None] // 8 + np.arange(WIDTH)
+            span = int(addresses.max() - base) // 8 + width
+            self._index = (addresses - base)[:, None] // 8 + np.arange(width)
             self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
 
     def read(self):
@@ -198,6 +199,61 @@ class HistoryBlocks:
     def write(self, values, rows=None):
         index = self._index if rows is None else self._index[rows]
         self._view[index] = values
+
+
+class HistoryBlocks(Blocks):
+    """The history blocks (HISTORY) of a list of CpmPhys."""
+
+    def __init__(self, phys, offset):
+        super().__init__(phys, offset, WIDTH)
+
+
+# --- the normal of interaction geometries (ScGeom.normal, a Vector3r), read and written in bulk
+NORMAL_WIDTH = 3
+_normal_found = None    # the offset found on a whole sample in this process
+
+
+def normal_values(geom):
+    return np.array(tuple(geom.normal), float)
+
+
+def find_normal_offset(geoms, sample=None):
+    """Offset (in doubles) of `normal` inside the interaction geometries `geoms` (one class),
+    found and verified as find_offset finds the history's: where every geometry's memory
+    holds exactly the three values Python reads (with `sample`, that many spread over the
+    list). CheckpointError if it cannot be found."""
+    global _normal_found
+    if not geoms:
+        return None
+    if _normal_found is not None and sample is not None:
+        few = geoms[::-(-len(geoms) // _REVERIFY)]
+        if all(_holds(g, _normal_found, normal_values(g)) for g in few):
+            return _normal_found
+    whole = sample is None or len(geoms) >= sample
+    if sample is not None and len(geoms) > sample:
+        geoms = geoms[::-(-len(geoms) // sample)]
+    address = state_address(geoms[0])
+    if address is None:
+        raise CheckpointError("cannot locate an interaction geometry in memory: unexpected "
+                              "boost.python layout")
+    memory = np.ctypeslib.as_array((ctypes.c_double * _SEARCH).from_address(address)).copy()
+    want = normal_values(geoms[0])
+    hits = [o for o in range(_SEARCH - NORMAL_WIDTH + 1)
+            if same_bits(memory[o:o + NORMAL_WIDTH], want)]
+    hits = [o for o in hits if all(_holds(g, o, normal_values(g)) for g in geoms)]
+    if len(hits) != 1:
+        raise CheckpointError(f"the geometry's normal found {len(hits)} times in memory (on "
+                              f"every interaction); cannot read the normals in bulk")
+    if whole:
+        _normal_found = hits[0]
+    return hits[0]
+
+
+def _holds(obj, offset, values):
+    """The object's memory at `offset` holds `values` bit for bit."""
+    address = state_address(obj)
+    return address is not None and same_bits(np.ctypeslib.as_array(
+        (ctypes.c_double * len(values)).from_address(address + 8 * offset)), values)
 
 
 def same_bits(a, b):

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from yade_side import import_yade
-from yade_side.memory import WIDTH, HistoryBlocks, find_offset
+from yade_side.memory import (NORMAL_WIDTH, WIDTH, Blocks, HistoryBlocks, find_normal_offset,
+                               find_offset)
 from yade_side.scene import settle_forces
 
 # the 19 history doubles (memory.HISTORY): 7 scalars, then sigmaT, Fs, epsTPl, epsT, whose
@@ -38,9 +39,17 @@ class Links:
 
 def _cpm(O, yade, index):
     """The real CPM interactions between bodies of `index` (id → position, -1: not one)."""
-    return [i for i in O.interactions
-            if i.isReal and isinstance(i.phys, yade.wrapper.CpmPhys)
-            and max(i.id1, i.id2) < len(index) and min(index[i.id1], index[i.id2]) >= 0]
+    cpm, index = yade.wrapper.CpmPhys, index.tolist()
+    n = len(index)
+    return [i for i in O.interactions.all(True)
+            if i.id1 < n and i.id2 < n and index[i.id1] >= 0 and index[i.id2] >= 0
+            and isinstance(i.phys, cpm)]
+
+
+def _normals(links):
+    """The ScGeom normals of the interactions `links`, one gather: Blocks (m, 3)."""
+    geoms = [i.geom for i in links]
+    return Blocks(geoms, find_normal_offset(geoms, SAMPLE) if geoms else 0, NORMAL_WIDTH)
 
 
 def capture_links(ids):
@@ -50,17 +59,13 @@ def capture_links(ids):
     index = _index(ids)
     links = _cpm(yade.Omega(), yade, index)
     offset = find_offset(links, SAMPLE)
-    pairs, phys, normal, scalars = [], [], [], []
-    for i in links:
-        p = i.phys
-        pairs.append((index[i.id1], index[i.id2]))
-        phys.append(p)
-        normal.append(tuple(i.geom.normal))
-        scalars.append((p.G, p.refPD, p.isCohesive))
-    scalars = np.array(scalars, float).reshape(-1, 3)
+    phys = [i.phys for i in links]
+    pairs = np.array([(i.id1, i.id2) for i in links], int).reshape(-1, 2)
+    scalars = np.array([(p.G, p.refPD, p.isCohesive) for p in phys], float).reshape(-1, 3)
     history = HistoryBlocks(phys, offset).read() if phys else np.empty((0, WIDTH))
-    return Links(np.array(pairs, int).reshape(-1, 2), history, np.array(normal).reshape(-1, 3),
-                 scalars[:, 0], scalars[:, 1], scalars[:, 2].astype(bool))
+    normal = _normals(links).read() if links else np.empty((0, 3))
+    return Links(index[pairs], history, normal, scalars[:, 0], scalars[:, 1],
+                 scalars[:, 2].astype(bool))
 
 
 def restore_links(links, ids, old_of, new_history=None):
@@ -77,28 +82,25 @@ def restore_links(links, ids, old_of, new_history=None):
     from yade import utils
     O = yade.Omega()
     index, old_of = _index(ids), np.asarray(old_of, int)
-    captured = {(int(a), int(b)): k for k, (a, b) in enumerate(links.pairs)}
-    erase, new, carry = [], [], []
-    for i in _cpm(O, yade, index):
-        j1, j2 = index[i.id1], index[i.id2]
-        a, b = old_of[j1], old_of[j2]
-        if a < 0 or b < 0:
-            new.append((i, j1, j2))
-            continue
-        k, sign = captured.pop((a, b), None), 1.0
-        if k is None:
-            k, sign = captured.pop((b, a), None), -1.0
-        if k is None:
-            erase.append((i.id1, i.id2))
-        else:
-            carry.append((i, k, sign))
+    found = _cpm(O, yade, index)
+    ends = index[np.array([(i.id1, i.id2) for i in found], int).reshape(-1, 2)]
+    olds = old_of[ends]
+    is_new = (olds < 0).any(axis=1)
+    k = np.full(len(found), -1)
+    k[~is_new] = _captured(links.pairs, olds[~is_new])
+    sign = np.ones(len(found))
+    sign[k >= 0] = np.where(olds[k >= 0, 0] == links.pairs[k[k >= 0], 0], 1.0, -1.0)
+    erase = [(found[j].id1, found[j].id2) for j in np.flatnonzero(~is_new & (k < 0))]
+    carry = [(found[j], k[j], sign[j]) for j in np.flatnonzero(k >= 0)]
+    new = [(found[j], ends[j, 0], ends[j, 1]) for j in np.flatnonzero(is_new)]
+    rest = np.setdiff1d(np.arange(len(links.pairs)), k)   # contacts to make, in capture order
     for pair in erase:
         O.interactions.erase(*pair)
     offset = find_offset([i for i, _, _ in carry] + [i for i, _, _ in new], SAMPLE)
     _write(carry, links, offset)
     if new_history is not None and new:
-        ends = np.array([(j1, j2) for _, j1, j2 in new])
-        normal = np.array([tuple(i.geom.normal) for i, _, _ in new])
+        ends = ends[is_new]
+        normal = _normals([i for i, _, _ in new]).read()
         blocks = HistoryBlocks([i.phys for i, _, _ in new], offset)
         values = blocks.read()
         new_history(ends, normal, values)
@@ -108,7 +110,7 @@ def restore_links(links, ids, old_of, new_history=None):
     id_of = np.full(max(old_of.max(initial=-1), links.pairs.max(initial=-1)) + 1, -1)
     id_of[old_of[old_of >= 0]] = np.asarray(ids)[old_of >= 0]
     made, kept, lost = [], [], 0
-    for k in captured.values():          # (links broken and erased are not here)
+    for k in rest:                       # (links broken and erased are not here)
         a, b = (int(j) for j in id_of[links.pairs[k]])
         try:
             i = utils.createInteraction(a, b)
@@ -127,6 +129,19 @@ def restore_links(links, ids, old_of, new_history=None):
     counts = {"carried": len(carry), "contacts": len(kept), "contacts_lost": lost,
               "erased": len(erase), "new": len(new)}
     return counts, [(i.id1, i.id2) for i, _, _ in new]
+
+
+def _captured(pairs, wanted):
+    """For each pair of `wanted` (m, 2), the index of the same pair in `pairs` (either
+    order), or -1."""
+    if not len(pairs) or not len(wanted):
+        return np.full(len(wanted), -1)
+    base = int(max(pairs.max(), wanted.max())) + 1
+    key = lambda p: np.sort(p, axis=1) @ np.array([base, 1])
+    order = np.argsort(key(pairs))
+    keys = key(pairs)[order]
+    at = np.minimum(np.searchsorted(keys, key(wanted)), len(keys) - 1)
+    return np.where(keys[at] == key(wanted), order[at], -1)
 
 
 def link_energy(pairs):
@@ -154,16 +169,15 @@ def _write(items, links, offset):
     values = links.history[k]
     values[:, _VECTORS] *= sign[:, None]
     HistoryBlocks([i.phys for i, _, _ in items], offset).write(values)
-    normal = links.normal[k] * sign[:, None]
-    for (i, _, _), n, released, contact, ref_pd in zip(
-            items, normal, links.shear_modulus[k] == 0, ~links.cohesive[k],
-            links.ref_penetration[k]):
-        i.geom.normal = tuple(n)
-        if released:
-            i.phys.G = 0.0
-        if contact:
-            i.phys.isCohesive = False
-            i.phys.refPD = float(ref_pd)
+    _normals([i for i, _, _ in items]).write(links.normal[k] * sign[:, None])
+    released, contact = links.shear_modulus[k] == 0, ~links.cohesive[k]
+    for j in np.flatnonzero(released | contact):
+        p = items[j][0].phys
+        if released[j]:
+            p.G = 0.0
+        if contact[j]:
+            p.isCohesive = False
+            p.refPD = float(links.ref_penetration[k[j]])
 
 
 def lever_arms_are_radii():

@@ -34,11 +34,12 @@ def growing_model(spec, resumed=None, log=print):
     spheres (slab and impactor), against which its budget counts."""
     base, start, limit, levels = check(spec)
     dt = None if resumed is None else float(resumed.info["dt"])   # every zone: the first's
+    packs = None                                                   # and its packings
 
     def build(mask):
-        nonlocal dt
-        m = SlabModel(spec, "coupled", zone_grid(base, mask), dt)
-        dt = m.dt
+        nonlocal dt, packs
+        m = SlabModel(spec, "coupled", zone_grid(base, mask), dt, packs)
+        dt, packs = m.dt, m.scene.packs
         return m
 
     model = GrowingModel(build, cell_grid(base), start, limit, spec.tensile_strength, levels,

@@ -75,12 +75,13 @@ def fe_parts(spec, grid, weight):
 
 class SlabScene:
     """The YADE scene of the slab (orchestrator.contracts.DEScene): the slab's spheres (all, or
-    those a coupled model keeps), the impactor, and for the full model the supports."""
+    those a coupled model keeps), the impactor, and for the full model the supports; `packs`:
+    the spec's make_packings, if already made (the same for every zone)."""
     time_step = (None, "")
 
-    def __init__(self, spec, bridging):
+    def __init__(self, spec, bridging, packs=None):
         self.spec, self.bridging = spec, bridging
-        self.packs = make_packings(spec)
+        self.packs = make_packings(spec) if packs is None else packs
         self.elastic_links = 0
         self.fe_bars = None           # the FE part's embedded bars, once it is built
 
@@ -154,10 +155,10 @@ def check_ranks(spec, model):
                          f"{model} one (its FE runs under mpirun: docs/mpi.md)")
 
 
-def description(spec, model, grid=None, dt=None):
+def description(spec, model, grid=None, dt=None, packs=None):
     """The builder's description of the slab's `model` (full or coupled), with the DE zone
     of `grid` (default: the spec's fixed zone, model_grid), and the time step `dt` (default: the
-    spec's dt_safety × the critical step)."""
+    spec's dt_safety × the critical step); `packs`: SlabScene's."""
     if model not in MODELS:
         raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
     check_ranks(spec, model)
@@ -166,7 +167,7 @@ def description(spec, model, grid=None, dt=None):
                          "model has FE outside its DE zone)")
     grid = model_grid(spec) if grid is None else grid
     bridging = slab_bridging(spec, grid)
-    scene = SlabScene(spec, bridging)
+    scene = SlabScene(spec, bridging, packs)
 
     def coupled_fe(weight):
         from fenicsx_side.distributed import on_rank_zero
@@ -188,9 +189,9 @@ def description(spec, model, grid=None, dt=None):
 class SlabModel(Model):
     """The slab's full or coupled model, built, with its sensors."""
 
-    def __init__(self, spec, model, grid=None, dt=None):
+    def __init__(self, spec, model, grid=None, dt=None, packs=None):
         t0 = perf_counter()
-        d, self.grid = description(spec, model, grid, dt)
+        d, self.grid = description(spec, model, grid, dt, packs)
         super().__init__(assemble(d))
         self.de_bars, self.bar_ids = d.bars, self.parts.bar_ids
         scene = d.scene
