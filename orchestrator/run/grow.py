@@ -321,7 +321,9 @@ class GrowingModel:
         self._record_peaks()
         settle_forces()
         before = old.energy_parts()
+        t_read = perf_counter()
         snap = snapshot(old)
+        t_read = perf_counter() - t_read
         if self._bind_sensors is None:
             self._bind_sensors = _sensor_binding(old)
         self.segments.append(segment)
@@ -329,7 +331,9 @@ class GrowingModel:
         t_build = perf_counter()
         new = self.build(grown)
         t_build = perf_counter() - t_build
+        t_carry = perf_counter()
         carried, new_links = carry(snap, new, self.tol, self.shear)
+        t_carry = perf_counter() - t_carry
         self._bind_sensors(new)
         settle_forces()
         keep_engine_phase(n)
@@ -348,7 +352,8 @@ class GrowingModel:
             "energy_parts_before": before, "energy_parts_after": after,
             "new_links_energy": {"normal": normal, "shear": shear},
             "strain_energy_ratio": strain_energy_ratio(before, after),
-            "carried": carried, "wall_s": perf_counter() - t0, "build_s": t_build})
+            "carried": carried, "wall_s": perf_counter() - t0, "read_s": t_read,
+            "build_s": t_build, "carry_s": t_carry})
         line = (f"zone grown at step {n} ({tripped.indicator}): {int(grown.sum())} cells, "
                 f"{new.sphere_count()} spheres (+{carried['bodies_added']}); energy "
                 f"{energy_before:.6g} J → {energy_after:.6g} J")
