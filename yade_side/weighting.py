@@ -23,14 +23,18 @@ def weight_links(ids, beta):
     mean β of the two, and the contacts made later alike (weight_contacts). Call once,
     when the cohesive links exist."""
     O = import_yade().Omega()
-    ids = np.asarray(ids, int)
+    ids, beta = np.asarray(ids, int), np.asarray(beta, float)
     index = np.full(ids.max() + 1, -1)
     index[ids] = np.arange(len(ids))
-    for i in O.interactions:
-        if max(i.id1, i.id2) >= len(index) or min(index[i.id1], index[i.id2]) < 0:
-            continue
-        w = 0.5 * (beta[index[i.id1]] + beta[index[i.id2]])
-        if w < 1.0:
+    index, n = index.tolist(), len(index)
+    for j in np.flatnonzero(beta < 1.0):      # the weighted spheres' links only
+        me = int(ids[j])
+        for i in O.interactions.withBody(me):
+            other = i.id2 if i.id1 == me else i.id1
+            k = index[other] if other < n else -1
+            if k < 0 or not i.isReal or (beta[k] < 1.0 and other < me):  # (once per link)
+                continue
+            w = 0.5 * (beta[j] + beta[k])
             p = i.phys
             p.crossSection, p.kn, p.ks = w * p.crossSection, w * p.kn, w * p.ks
     weight_contacts(ids, beta)
