@@ -132,9 +132,10 @@ def resumed_growth(out, inputs, grid, start, limit):
     return ResumedGrowth(info, arrays)
 
 
-# A conversion (the grown model's build and the state carried into it) costs about as much
-# wall time as this many steps of the grown model: 90 at small scale (1.6 s at 6,000
-# spheres), 107 at paper scale (24 s at 78,000), 40 m/s, seed 1 (docs/auto-zone.md).
+# What a conversion (the grown model's build and the state carried into it) costs in steps of
+# the grown model, as the budget counts it: measured 90-110 when the trip levels were set
+# against the ensembles, 77-79 now (`make bench`); kept until those tables are run again
+# (docs/auto-zone.md, "What a conversion costs").
 CONVERSION_STEPS = 100
 
 
