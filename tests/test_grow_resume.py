@@ -182,3 +182,65 @@ def test_a_grown_run_whose_case_changed_is_refused(runs, tmp_path, capsys):
     err = one_line_error(capsys, main(["slab", "--resume", str(out), "--quiet"]))
     assert "no model.npz in it" in err
     assert not (out / "summary.json").exists()
+
+
+# the same slab with a budget so small that the zone stops at its first trip (step 150), and
+# the full model it falls back to, checkpointed at step 100 (a checkpoint of the small full
+# slab takes about 10 s)
+LIMITED = ["slab", "--model", "coupled", "--scale", "small", "--impactor-speed", "40",
+           "--fe-material", "damage", "--zone-cost", "0.05", "--fallback", "full",
+           "--steps", "160", "--checkpoint-every", "100", "--output-every", "100",
+           "--threads", "1", "--quiet"]
+
+
+@pytest.mark.slow
+def test_a_fallback_stopped_resumes_and_ends_as_the_run_not_stopped(tmp_path):
+    """A grown run whose zone reached its budget runs the full model (`--fallback full`);
+    stopped by SIGTERM during it (after its checkpoint of step 100), `slab --resume` carries
+    the full model on from there and writes the summary the run not stopped wrote: the growth
+    record of stopped/, the full model's figures (bit-identical to where round-off can
+    reach: a full slab resumed is, until a new contact forms, docs/case-files.md)."""
+    from orchestrator.run.record import Recorder
+    reference, out = tmp_path / "reference", tmp_path / "stopped"
+    assert main(LIMITED + ["--out", str(reference)]) == 0
+    checkpoint = Recorder.checkpoint
+
+    def checkpoint_then_sigterm(self, n):
+        checkpoint(self, n)
+        if self.out.name == "full" and n == 100:
+            os.kill(os.getpid(), signal.SIGTERM)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(Recorder, "checkpoint", checkpoint_then_sigterm)
+        assert main(LIMITED + ["--out", str(out)]) == STOPPED
+    assert (out / "stopped" / "growth.json").is_file() and (out / "full" / "checkpoint").is_dir()
+    assert not (out / "summary.json").exists()
+    assert main(["slab", "--resume", str(out), "--quiet"]) == 0
+    assert not (out / "full").exists()
+    sa, sb = (json.loads((d / "summary.json").read_text()) for d in (reference, out))
+    assert sa["zone_outcome"] == sb["zone_outcome"] == "limit"
+    assert sa["zone_fallback"] == sb["zone_fallback"] == "full" and sb["model"] == "full"
+    growth = ("zone_conversions", "zone_final", "zone_segments", "zone_sphere_steps",
+              "zone_message", "zone_limit_reached", "zone_full_model_spheres")
+    assert {k: sb[k] for k in growth} == {k: sa[k] for k in growth}
+    assert sb["n_spheres"] == sa["n_spheres"] and sb["steps"] == sa["steps"] == 160
+    for name, sensor in sa["sensors"].items():
+        assert np.isclose(sb["sensors"][name]["peak_displacement"],
+                          sensor["peak_displacement"], rtol=1e-9, atol=0)
+    assert sorted(p.name for p in (out / "stopped").iterdir()) == \
+        sorted(p.name for p in (reference / "stopped").iterdir())
+    (ta, _, ha), (tb, _, hb) = (read_sensors(d / "sensors.csv") for d in (reference, out))
+    assert same_bits(ta, tb) and np.abs(hb - ha).max() <= 1e-9 * np.abs(ha).max()
+
+
+def test_a_fallback_stopped_is_resumed_by_slab_only(tmp_path, capsys):
+    """A folder whose zone reached its limit and whose fallback stopped: `run --resume` names
+    the command that carries it on; an unreadable growth record is one line too."""
+    out = tmp_path / "run"
+    (out / "stopped").mkdir(parents=True)
+    (out / "full").mkdir()
+    (out / "stopped" / "growth.json").write_text(json.dumps({"spec": {"scale": "small"}}))
+    err = one_line_error(capsys, main(["run", "--resume", str(out), "--quiet"]))
+    assert f"carry it on with `slab --resume {out}`" in err
+    (out / "stopped" / "growth.json").write_text("{")
+    err = one_line_error(capsys, main(["slab", "--resume", str(out), "--quiet"]))
+    assert "growth.json: unreadable" in err

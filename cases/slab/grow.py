@@ -15,6 +15,8 @@ zone's holds (scene, FE, coupling, the run's record), the growth
 zone the checkpoint was in, with the run's time step, and the run loop loads the state into
 it.
 """
+from dataclasses import asdict
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -54,40 +56,94 @@ def growing_model(spec, resumed=None, log=print):
 def run_grow(spec, out, quiet=False, resume=False, inputs=None):
     """The coupled slab with a zone grown during the run; returns the summary written in
     `out`; resume: carry on from the checkpoint in `out` (`inputs`: what the results depend
-    on, orchestrator.run.inputs; a resumed run must have the same)."""
+    on, orchestrator.run.inputs; a resumed run must have the same), or, when the zone had
+    reached its limit, the fallback's full model from its own (fallback_growth)."""
     from orchestrator.run.inputs import spec_inputs
     base, start, limit, _ = check(spec)
     grid = cell_grid(base)
     inputs = spec_inputs(spec, "coupled") if inputs is None else inputs
+    growth = fallback_growth(out) if resume else None
+    if growth is not None:
+        return _limit_summary(spec, out, grid, limit, growth, fallback(spec, out, quiet, True))
     resumed = resumed_growth(out, inputs, grid, start, limit) if resume else None
     model, full_spheres = growing_model(spec, resumed, (lambda line: None) if quiet else print)
     try:
         summary = run_built(model, out, quiet, resume, inputs)
-        outcome, limit_reached = "clean", None
     except ZoneLimit as e:
         stopped = out / "stopped"
         stopped.mkdir()
         for entry in list(out.iterdir()):
             if entry != stopped and not entry.name.startswith("."):    # the folder's marker
                 entry.rename(stopped / entry.name)
-        outcome, limit_reached = "limit", e.reached
         message = cannot_pay(
             f"after {len(model.conversions)} conversions during the run, at step "
             f"{e.tripped.step} ({e.tripped.indicator}), {e.reason} (DE zone "
             f"{int(model.zone.sum())} of {model.zone.size} in-plane cells, "
             f"{model.sphere_count()} of the full model's {full_spheres} spheres)")
         print(message)
-        summary = {**fallback(spec, out, quiet), "zone_message": message}
-    summary.update(model.record(spec.steps), zone_outcome=outcome,
-                   zone_limit_reached=limit_reached, zone_full_model_spheres=full_spheres,
-                   zone_full_model_sphere_steps=full_spheres * spec.steps)
+        growth = {**_growth_record(spec, model, full_spheres), "zone_outcome": "limit",
+                  "zone_limit_reached": e.reached, "zone_message": message,
+                  "zones": np.array(model.zones).tolist()}
+        write_json(stopped / GROWTH, {"spec": asdict(spec), **growth})
+        return _limit_summary(spec, out, grid, limit, growth, fallback(spec, out, quiet))
+    summary.update(_growth_record(spec, model, full_spheres), zone_outcome="clean",
+                   zone_limit_reached=None, n_slab_spheres=len(model.slab_ids),
+                   zone_cells=np.argwhere(model.zone).tolist())
+    return _write_summary(spec, out, grid, limit, summary, model.zones)
+
+
+# what a run stopped at its limit keeps of its growth, in stopped/, for its summary: written
+# before the fallback runs, read back when that is resumed
+GROWTH = "growth.json"
+
+
+def fallback_growth(out):
+    """The growth record (stopped/growth.json, less the spec) of the grown run in `out` whose
+    zone reached its limit, if its fallback's full model was stopped (out/full is there);
+    else None."""
+    import json
+    out = Path(out)
+    path = out / "stopped" / GROWTH
+    if not (path.is_file() and (out / "full").is_dir()):
+        return None
+    try:
+        growth = json.loads(path.read_text())
+        growth.pop("spec")
+    except (OSError, ValueError, KeyError) as e:
+        raise ValueError(f"{path}: unreadable ({e!r}): run it again") from None
+    return growth
+
+
+def fallback_spec(out):
+    """The spec of the grown run in `out` whose fallback can be resumed (fallback_growth), or
+    None."""
+    import json
+    from cases.slab.spec import SlabSpec
+    if fallback_growth(out) is None:
+        return None
+    return SlabSpec(**json.loads((Path(out) / "stopped" / GROWTH).read_text())["spec"])
+
+
+def _growth_record(spec, model, full_spheres):
+    """What summary.json records of the growth and its cost against the full model."""
+    return {**model.record(spec.steps), "zone_full_model_spheres": full_spheres,
+            "zone_full_model_sphere_steps": full_spheres * spec.steps}
+
+
+def _limit_summary(spec, out, grid, limit, growth, summary):
+    """The summary of a run whose zone reached its limit: its fallback's `summary` and the
+    growth record (`growth`, with its zones)."""
+    growth = dict(growth)
+    zones = [np.array(z, dtype=bool) for z in growth.pop("zones")]
+    return _write_summary(spec, out, grid, limit, {**summary, **growth}, zones)
+
+
+def _write_summary(spec, out, grid, limit, summary, zones):
     summary["zone_final"]["grid"] = {"p0": grid.p0.tolist(), "p1": grid.p1.tolist(),
                                      "n": grid.n.tolist(), "axes": grid.axes}
-    if outcome == "clean":
-        summary.update(n_slab_spheres=len(model.slab_ids),
-                       zone_cells=np.argwhere(model.zone).tolist())
     write_json(out / "summary.json", summary)
-    plot_zones(out / "zones.png", grid, SimpleNamespace(zones=model.zones, status=outcome),
+    plot_zones(out / "zones.png", grid, SimpleNamespace(zones=zones,
+                                                        status=summary["zone_outcome"]),
                limit, f"slab {spec.scale}, {spec.impactor_speed:g} m/s, grown during the run",
                joined="zone the cell joined (1: the start)")
     return summary

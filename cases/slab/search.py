@@ -53,14 +53,16 @@ def run_auto(spec, out, quiet=False):
     return summary
 
 
-def fallback(spec, out, quiet):
+def fallback(spec, out, quiet, resume=False):
     """When coupling cannot pay: the full model's run in `out` with fallback "full" (its
-    summary), else a summary that says only what was asked."""
+    summary; resume: carry it on from its checkpoint in out/full), else a summary that says
+    only what was asked."""
     if spec.fallback != "full":
         return {"model": "coupled", "spec": asdict(spec)}
     full_out = out / "full"
-    full_out.mkdir()
-    summary = run(replace(spec, zone="box"), "full", full_out, quiet)
+    if not resume:
+        full_out.mkdir()
+    summary = run(replace(spec, zone="box"), "full", full_out, quiet, resume=resume)
     for entry in list(full_out.iterdir()):
         entry.rename(out / entry.name)
     full_out.rmdir()

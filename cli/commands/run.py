@@ -26,6 +26,10 @@ def run(args):
                              "give no case file, --set, --out or --force with it")
         from orchestrator.run.restart import check_inputs, resume_meta
         out = Path(args.resume)
+        from cases.slab.grow import fallback_spec
+        if fallback_spec(out) is not None:
+            raise ValueError(f"{out}: its zone reached its limit and the full model it fell "
+                             f"back to was stopped: carry it on with `slab --resume {out}`")
         meta = resume_meta(out)               # a clear error if there is no checkpoint
         info = meta["info"]
         if args.threads is None:        # the run's own threads: a 1-thread run stays bit-identical

@@ -121,10 +121,15 @@ def _from_checkpoint(args):
     if given:
         raise ValueError(f"--resume DIR takes the slab and its folder from DIR's "
                          f"checkpoint: give no {', '.join(given)} with it")
-    meta = resume_meta(args.resume)
+    from pathlib import Path
+    from cases.slab.grow import fallback_spec
+    grown = fallback_spec(args.resume)     # a grown run at its limit, its fallback stopped
+    meta = resume_meta(Path(args.resume) / "full" if grown else args.resume)
     info = meta["info"]
     if args.threads is None:
         args.threads = meta.get("yade_threads")
+    if grown is not None:
+        return grown, "coupled"
     if "spec" not in info or "model" not in info:
         raise ValueError(f"{args.resume} holds a checkpoint of case {info.get('case')!r}, "
                          f"not of a slab run: resume it with `run --resume`")
