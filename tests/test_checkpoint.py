@@ -4,7 +4,8 @@ import pytest
 
 from yade_side import import_yade
 from yade_side.bulk import BodySet
-from yade_side.checkpoint import CheckpointError, history_values, load_scene, save_scene
+from yade_side.checkpoint import CheckpointError, load_scene, save_scene
+from yade_side.memory import history_values
 from yade_side.material import ConcreteParams, cpm_material
 from yade_side.packing import add_spheres, dense_box_packing, sphere_arrays
 from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene

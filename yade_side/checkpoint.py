@@ -22,8 +22,8 @@ import numpy as np
 from common.files import save_npz
 from yade_side import import_yade
 from yade_side.bulk import reattach_all
-from yade_side.memory import (WIDTH, CheckpointError, check_version, find_offset, history_block,
-                               history_values, same_bits)
+from yade_side.memory import (WIDTH, CheckpointError, HistoryBlocks, check_version,
+                               find_offset, histories)
 
 
 def _cpm_links():
@@ -40,9 +40,10 @@ def save_scene(folder):
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     links = _cpm_links()
-    offset = find_offset(links)
+    offset = find_offset(links)          # every link verified at it
     pairs = np.array([(i.id1, i.id2) for i in links], dtype=np.int64).reshape(-1, 2)
-    history = np.array([history_block(i.phys, offset) for i in links]).reshape(-1, WIDTH)
+    history = (HistoryBlocks([i.phys for i in links], offset).read() if links
+               else np.empty((0, WIDTH)))
     O.save(str(folder / "scene.yade.gz"))
     save_npz(folder / "cpm_history.npz", pairs=pairs, history=history,
              offset=-1 if offset is None else offset)
@@ -73,14 +74,24 @@ def load_scene(folder):
     if not np.array_equal(loaded, pairs):
         raise CheckpointError(f"checkpoint {folder}: the saved scene has {len(loaded)} CPM links "
                               f"and the history file {len(pairs)}, or in another order")
-    for link, values in zip(links, history):
-        # the block must hold what Python reads (the constructor's values) before it is set
-        if not same_bits(history_block(link.phys, offset),
-                                                          history_values(link.phys)):
-            raise CheckpointError(f"checkpoint {folder}: CpmPhys of link {link.id1}-{link.id2} "
-                                  f"does not have the saved layout (another YADE build?)")
-        history_block(link.phys, offset)[:] = values
-        if not same_bits(history_values(link.phys), values):
+    if links:
+        phys = [i.phys for i in links]
+        blocks = HistoryBlocks(phys, offset)
+        # the blocks must hold what Python reads (the constructor's values) before they are set
+        bad = _first_differing(blocks.read(), histories(phys))
+        if bad is not None:
+            raise CheckpointError(f"checkpoint {folder}: CpmPhys of link {links[bad].id1}-"
+                                  f"{links[bad].id2} does not have the saved layout (another "
+                                  f"YADE build?)")
+        blocks.write(history)
+        bad = _first_differing(histories(phys), history)
+        if bad is not None:
             raise CheckpointError(f"checkpoint {folder}: CPM history of link "
-                                  f"{link.id1}-{link.id2} did not restore exactly")
+                                  f"{links[bad].id1}-{links[bad].id2} did not restore exactly")
     reattach_all()
+
+
+def _first_differing(a, b):
+    """The first row where the (n, WIDTH) arrays a and b differ in any bit, or None."""
+    differ = (np.asarray(a, float).view(np.int64) != np.asarray(b, float).view(np.int64)).any(1)
+    return int(np.argmax(differ)) if differ.any() else None

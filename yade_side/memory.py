@@ -159,7 +159,19 @@ HISTORY_OFFSET = {"2023.02a": 12}
 
 def history_values(phys):
     """The 19 history doubles of a CpmPhys, as Python reads them."""
-    return np.concatenate([np.atleast_1d(np.asarray(getattr(phys, n), float)) for n in HISTORY])
+    values = []
+    for name in HISTORY:
+        v = getattr(phys, name)
+        if isinstance(v, float):
+            values.append(v)
+        else:                   # a Vector3r: indexed (iterating it costs 8 × as much)
+            values.extend((v[0], v[1], v[2]))
+    return np.array(values, float)
+
+
+def histories(phys):
+    """history_values of each CpmPhys of `phys`, (n, WIDTH)."""
+    return np.array([history_values(p) for p in phys], float).reshape(-1, WIDTH)
 
 
 def history_block(phys, offset):
@@ -214,7 +226,8 @@ _normal_found = None    # the offset found on a whole sample in this process
 
 
 def normal_values(geom):
-    return np.array(tuple(geom.normal), float)
+    n = geom.normal
+    return np.array((n[0], n[1], n[2]), float)
 
 
 def find_normal_offset(geoms, sample=None):
@@ -280,15 +293,15 @@ def find_offset(links, sample=None):
     whole = sample is None or len(links) >= sample
     if sample is not None and len(links) > sample:
         links = links[::-(-len(links) // sample)]
-    probe = max(links, key=lambda i: np.count_nonzero(history_values(i.phys)))
-    address = state_address(probe.phys)
+    phys = [i.phys for i in links]
+    want = histories(phys)
+    probe = int(np.argmax(np.count_nonzero(want, axis=1)))   # the first with the most
+    address = state_address(phys[probe])
     if address is None:
         raise CheckpointError("cannot locate CpmPhys in memory: unexpected boost.python layout")
     memory = np.ctypeslib.as_array((ctypes.c_double * _SEARCH).from_address(address)).copy()
-    want = history_values(probe.phys)
-    hits = [o for o in range(_SEARCH - WIDTH + 1) if same_bits(memory[o:o + WIDTH], want)]
-    hits = [o for o in hits if all(same_bits(history_block(i.phys, o), history_values(i.phys))
-                                   for i in links)]
+    hits = [o for o in range(_SEARCH - WIDTH + 1) if same_bits(memory[o:o + WIDTH], want[probe])]
+    hits = [o for o in hits if same_bits(HistoryBlocks(phys, o).read(), want)]
     known = HISTORY_OFFSET.get(yade_version())
     if len(hits) > 1 and known in hits:
         hits = [known]
