@@ -238,7 +238,8 @@ def test_a_fallback_stopped_is_resumed_by_slab_only(tmp_path, capsys):
     out = tmp_path / "run"
     (out / "stopped").mkdir(parents=True)
     (out / "full").mkdir()
-    (out / "stopped" / "growth.json").write_text(json.dumps({"spec": {"scale": "small"}}))
+    (out / "stopped" / "growth.json").write_text(json.dumps({"spec": {"scale": "small"},
+                                                             "zones": []}))
     err = one_line_error(capsys, main(["run", "--resume", str(out), "--quiet"]))
     assert f"carry it on with `slab --resume {out}`" in err
     (out / "stopped" / "growth.json").write_text("{")

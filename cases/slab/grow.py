@@ -98,9 +98,9 @@ GROWTH = "growth.json"
 
 
 def fallback_growth(out):
-    """The growth record (stopped/growth.json, less the spec) of the grown run in `out` whose
-    zone reached its limit, if its fallback's full model was stopped (out/full is there);
-    else None."""
+    """The growth record (stopped/growth.json: the spec, as a dict, and what the summary
+    takes) of the grown run in `out` whose zone reached its limit, if its fallback's full
+    model was stopped (out/full is there); else None."""
     import json
     out = Path(out)
     path = out / "stopped" / GROWTH
@@ -108,8 +108,8 @@ def fallback_growth(out):
         return None
     try:
         growth = json.loads(path.read_text())
-        growth.pop("spec")
-    except (OSError, ValueError, KeyError) as e:
+        growth["spec"], growth["zones"]
+    except (OSError, ValueError, KeyError, TypeError) as e:
         raise ValueError(f"{path}: unreadable ({e!r}): run it again") from None
     return growth
 
@@ -117,11 +117,9 @@ def fallback_growth(out):
 def fallback_spec(out):
     """The spec of the grown run in `out` whose fallback can be resumed (fallback_growth), or
     None."""
-    import json
     from cases.slab.spec import SlabSpec
-    if fallback_growth(out) is None:
-        return None
-    return SlabSpec(**json.loads((Path(out) / "stopped" / GROWTH).read_text())["spec"])
+    growth = fallback_growth(out)
+    return None if growth is None else SlabSpec(**growth["spec"])
 
 
 def _growth_record(spec, model, full_spheres):
@@ -132,8 +130,8 @@ def _growth_record(spec, model, full_spheres):
 
 def _limit_summary(spec, out, grid, limit, growth, summary):
     """The summary of a run whose zone reached its limit: its fallback's `summary` and the
-    growth record (`growth`, with its zones)."""
-    growth = dict(growth)
+    growth record (`growth`, with its zones, and its spec, left out)."""
+    growth = {k: v for k, v in growth.items() if k != "spec"}
     zones = [np.array(z, dtype=bool) for z in growth.pop("zones")]
     return _write_summary(spec, out, grid, limit, {**summary, **growth}, zones)
 
