@@ -152,7 +152,6 @@ HISTORY = ("omega", "Fn", "sigmaN", "epsN", "relResidualStrength", "kappaD", "ep
 WIDTH = 19
 _SEARCH = 128  # doubles of a CpmPhys searched for the block
 _REVERIFY = 16  # links on which a found offset is verified again
-_found = None   # the offset found on a whole sample in this process
 # where the block lies in the CpmPhys of the verified versions (found on damaged links)
 HISTORY_OFFSET = {"2023.02a": 12}
 
@@ -172,14 +171,6 @@ def history_values(phys):
 def histories(phys):
     """history_values of each CpmPhys of `phys`, (n, WIDTH)."""
     return np.array([history_values(p) for p in phys], float).reshape(-1, WIDTH)
-
-
-def history_block(phys, offset):
-    """A numpy view of the 19 history doubles of a CpmPhys in YADE's memory."""
-    address = state_address(phys)
-    if address is None:
-        raise CheckpointError("cannot locate a CpmPhys in memory: unexpected boost.python layout")
-    return np.ctypeslib.as_array((ctypes.c_double * WIDTH).from_address(address + 8 * offset))
 
 
 class Blocks:
@@ -222,7 +213,6 @@ class HistoryBlocks(Blocks):
 
 # --- the normal of interaction geometries (ScGeom.normal, a Vector3r), read and written in bulk
 NORMAL_WIDTH = 3
-_normal_found = None    # the offset found on a whole sample in this process
 
 
 def normal_values(geom):
@@ -230,43 +220,16 @@ def normal_values(geom):
     return np.array((n[0], n[1], n[2]), float)
 
 
+def normals(geoms):
+    """normal_values of each geometry of `geoms`, (n, NORMAL_WIDTH)."""
+    return np.array([normal_values(g) for g in geoms], float).reshape(-1, NORMAL_WIDTH)
+
+
 def find_normal_offset(geoms, sample=None):
     """Offset (in doubles) of `normal` inside the interaction geometries `geoms` (one class),
-    found and verified as find_offset finds the history's: where every geometry's memory
-    holds exactly the three values Python reads (with `sample`, that many spread over the
-    list). CheckpointError if it cannot be found."""
-    global _normal_found
-    if not geoms:
-        return None
-    if _normal_found is not None and sample is not None:
-        few = geoms[::-(-len(geoms) // _REVERIFY)]
-        if all(_holds(g, _normal_found, normal_values(g)) for g in few):
-            return _normal_found
-    whole = sample is None or len(geoms) >= sample
-    if sample is not None and len(geoms) > sample:
-        geoms = geoms[::-(-len(geoms) // sample)]
-    address = state_address(geoms[0])
-    if address is None:
-        raise CheckpointError("cannot locate an interaction geometry in memory: unexpected "
-                              "boost.python layout")
-    memory = np.ctypeslib.as_array((ctypes.c_double * _SEARCH).from_address(address)).copy()
-    want = normal_values(geoms[0])
-    hits = [o for o in range(_SEARCH - NORMAL_WIDTH + 1)
-            if same_bits(memory[o:o + NORMAL_WIDTH], want)]
-    hits = [o for o in hits if all(_holds(g, o, normal_values(g)) for g in geoms)]
-    if len(hits) != 1:
-        raise CheckpointError(f"the geometry's normal found {len(hits)} times in memory (on "
-                              f"every interaction); cannot read the normals in bulk")
-    if whole:
-        _normal_found = hits[0]
-    return hits[0]
-
-
-def _holds(obj, offset, values):
-    """The object's memory at `offset` holds `values` bit for bit."""
-    address = state_address(obj)
-    return address is not None and same_bits(np.ctypeslib.as_array(
-        (ctypes.c_double * len(values)).from_address(address + 8 * offset)), values)
+    found and verified as find_offset finds the CPM history's. CheckpointError if it cannot
+    be found."""
+    return _locate(geoms, normals, NORMAL_WIDTH, sample, "the geometries' normal")
 
 
 def same_bits(a, b):
@@ -283,31 +246,42 @@ def find_offset(links, sample=None):
     offset is the class's for this process: later sampled calls verify it on a few of their
     links (_REVERIFY) and search again only if they disagree; a call without `sample` (a
     checkpoint) verifies every link. CheckpointError if it cannot be found."""
-    global _found
-    if not links:
+    return _locate([i.phys for i in links], histories, WIDTH, sample, "the CPM history",
+                   HISTORY_OFFSET.get(yade_version()))
+
+
+_found = {}     # field -> its offset, once found on a whole sample in this process
+
+
+def _locate(objects, values, width, sample, field, known=None):
+    """find_offset's search for any field of `width` doubles in the C++ objects `objects`
+    (their wrappers, one class), values(objects) (n, width) being what Python reads of it:
+    the offsets where the object with the most non-zero values holds them, kept where every
+    object (or the sample's) does; `known` decides between several."""
+    if not objects:
         return None
-    if _found is not None and sample is not None:
-        few = links[::-(-len(links) // _REVERIFY)]
-        if all(same_bits(history_block(i.phys, _found), history_values(i.phys)) for i in few):
-            return _found
-    whole = sample is None or len(links) >= sample
-    if sample is not None and len(links) > sample:
-        links = links[::-(-len(links) // sample)]
-    phys = [i.phys for i in links]
-    want = histories(phys)
+    cached = _found.get(field)
+    if cached is not None and sample is not None:
+        few = objects[::-(-len(objects) // _REVERIFY)]
+        if same_bits(Blocks(few, cached, width).read(), values(few)):
+            return cached
+    whole = sample is None or len(objects) >= sample
+    if sample is not None and len(objects) > sample:
+        objects = objects[::-(-len(objects) // sample)]
+    want = values(objects)
     probe = int(np.argmax(np.count_nonzero(want, axis=1)))   # the first with the most
-    address = state_address(phys[probe])
+    address = state_address(objects[probe])
     if address is None:
-        raise CheckpointError("cannot locate CpmPhys in memory: unexpected boost.python layout")
+        raise CheckpointError(f"cannot locate {field} in memory: unexpected boost.python "
+                              f"layout")
     memory = np.ctypeslib.as_array((ctypes.c_double * _SEARCH).from_address(address)).copy()
-    hits = [o for o in range(_SEARCH - WIDTH + 1) if same_bits(memory[o:o + WIDTH], want[probe])]
-    hits = [o for o in hits if same_bits(HistoryBlocks(phys, o).read(), want)]
-    known = HISTORY_OFFSET.get(yade_version())
+    hits = [o for o in range(_SEARCH - width + 1) if same_bits(memory[o:o + width], want[probe])]
+    hits = [o for o in hits if same_bits(Blocks(objects, o, width).read(), want)]
     if len(hits) > 1 and known in hits:
         hits = [known]
     if len(hits) != 1:
-        raise CheckpointError(f"CpmPhys history block found {len(hits)} times in memory (on "
-                              f"every link); cannot checkpoint the CPM damage state")
+        raise CheckpointError(f"{field} found {len(hits)} times in memory (in every object "
+                              f"of {len(objects)}): cannot read it in bulk")
     if whole:
-        _found = hits[0]
+        _found[field] = hits[0]
     return hits[0]
