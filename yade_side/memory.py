@@ -26,7 +26,7 @@ VERIFIED = ("2023.02a",)
 # boost.python instance: PyObject_VAR_HEAD (3 words), dict, weakrefs, holder pointer (word 5),
 # then the in-place pointer_holder: vtable, next, shared_ptr<State> (pointer at word 8)
 _HOLDER_WORD, _HOLDER_OFFSET, _POINTER_WORD = 5, 48, 8
-_SEARCH = 64  # doubles of a State searched for the fields
+_STATE_SEARCH = 64  # doubles of a State searched for the fields
 _WIDTHS = (3, 3, 3, 4)  # pos, vel, angVel, ori (x, y, z, w): the API's order
 
 
@@ -115,7 +115,7 @@ def locate(omega, ids, get, put):
         return None
     addresses = np.array(addresses, dtype=np.int64)
     base = int(addresses.min())
-    span = int(addresses.max() - base) // 8 + _SEARCH
+    span = int(addresses.max() - base) // 8 + _STATE_SEARCH
     index = (addresses - base)[:, None] // 8 + offsets[None, :]
     memory = StateMemory(omega, ids, wrappers, index, base, span)
     expected = np.array(get(ids), float).reshape(-1, 13)
@@ -131,13 +131,15 @@ def _field_offsets(address, body_id, get, put):
     probe = 1000.0 + np.arange(13) / 16.0  # exact binary fractions, unlike any state value
     put([body_id], probe.tolist())
     try:
-        memory = np.ctypeslib.as_array((ctypes.c_double * _SEARCH).from_address(address)).copy()
+        memory = np.ctypeslib.as_array(
+            (ctypes.c_double * _STATE_SEARCH).from_address(address)).copy()
     finally:
         put([body_id], saved)
     offsets, start = [], 0
     for width in _WIDTHS:
         field = probe[start:start + width]
-        hits = [o for o in range(_SEARCH - width + 1) if np.array_equal(memory[o:o + width], field)]
+        hits = [o for o in range(_STATE_SEARCH - width + 1)
+                if np.array_equal(memory[o:o + width], field)]
         if len(hits) != 1:
             return None
         offsets.extend(range(hits[0], hits[0] + width))
@@ -150,7 +152,7 @@ def _field_offsets(address, body_id, get, put):
 HISTORY = ("omega", "Fn", "sigmaN", "epsN", "relResidualStrength", "kappaD", "epsNPl",
            "sigmaT", "Fs", "epsTPl", "epsT")
 WIDTH = 19
-_SEARCH = 128  # doubles of a CpmPhys searched for the block
+_SEARCH = 128  # doubles of a CpmPhys (or a geometry) searched for a field
 _REVERIFY = 16  # links on which a found offset is verified again
 # where the block lies in the CpmPhys of the verified versions (found on damaged links)
 HISTORY_OFFSET = {"2023.02a": 12}
