@@ -26,7 +26,6 @@ Serial only: a cell's strain needs its ghost nodes, which this model does not ex
 """
 import basix
 import numpy as np
-import scipy.sparse as sp
 
 from fenicsx_side.damage_law import (PAIRS, band_width, components, positive_part,
                                       tensors)
@@ -62,6 +61,7 @@ class DamageModel(ElasticModel):
         if self.comm.size > 1:
             raise ValueError("FE damage runs on one rank: run the damaging model without mpirun")
         self.law = law
+        self._nodes64 = np.ascontiguousarray(self.cell_nodes, dtype=np.int64)
         self._cells_geometry(quadrature_degree, weight)
         n = len(self.cell_nodes)
         self.kappa, self.kappa_c = np.zeros(n), np.zeros(n)
@@ -69,7 +69,6 @@ class DamageModel(ElasticModel):
         self.damage_t, self.damage_c, self.damage = np.zeros(n), np.zeros(n), np.zeros(n)
         self.dissipated = 0.0
         self._force = np.zeros(self.ndof)
-        self._nodes64 = np.ascontiguousarray(self.cell_nodes, dtype=np.int64)
         self._cell_dofs = (3 * self.cell_nodes[:, :, None]
                            + np.arange(3, dtype=np.int64)).reshape(n, -1)
         dofs = self._cell_dofs.shape[1]
@@ -77,6 +76,7 @@ class DamageModel(ElasticModel):
         self._own_row = np.full(n, -1)          # each cell's row there (-1: none yet)
         self._own_count = 0
         self._position = np.zeros(n, int)        # a damaged cell's place in `split`'s order
+        self._grouped = (np.arange(0), [])       # the last damaged cells and their `_groups`
 
     def _cells_geometry(self, degree, weight):
         """Per cell: volume, centre, mean strain operators (plain, for the strain the law
@@ -102,7 +102,9 @@ class DamageModel(ElasticModel):
         self._weighted_volume = dv_weighted.sum(axis=1)
         weighted = mean(dv_weighted)
         self._quadrature = (grad, dv_weighted, weighted)   # for the cells' higher-order part
-        self._weighted_strain = self._strain_operator(weighted, self._weighted_cells)
+        # the weighted cells' nodes and α-weighted mean gradients, for their strains (kernels)
+        self._weighted_ops = (np.ascontiguousarray(self._nodes64[self._weighted_cells]),
+                              np.ascontiguousarray(weighted[self._weighted_cells]))
         self._classes(alpha_nodes[self.cell_nodes] if weight is not None
                       else np.ones(self.cell_nodes.shape))
         centre = np.tile(self._reference_centre(), (n_cells, 1))
@@ -192,23 +194,6 @@ class DamageModel(ElasticModel):
             groups.append((slice(bounds[c], bounds[c + 1]), self._class_ops[1][c]))
         return groups
 
-    def _strain_operator(self, mean_grad, cells=None):
-        """Sparse (6 m, ndof): u ↦ the mean strains of `cells` (default all, m of them),
-        component-major (row k m + i: component PAIRS[k] of cells[i]), from mean
-        shape-function gradients (n, nv, 3): ε_ab = ½ (∂u_a/∂x_b + ∂u_b/∂x_a)."""
-        cells = np.arange(len(self.cell_nodes)) if cells is None else cells
-        m, nodes, g = len(cells), self.cell_nodes[cells], mean_grad[cells]
-        rows, cols, vals = [], [], []
-        for k, (a, b) in enumerate(PAIRS):
-            row = np.broadcast_to((k * m + np.arange(m))[:, None], nodes.shape)
-            rows += [row, row]
-            cols += [3 * nodes + a, 3 * nodes + b]
-            vals += [0.5 * g[:, :, b], 0.5 * g[:, :, a]]
-        return sp.csr_matrix((np.concatenate([v.ravel() for v in vals]),
-                              (np.concatenate([r.ravel() for r in rows]),
-                               np.concatenate([c.ravel() for c in cols]))),
-                             shape=(6 * m, self.ndof))
-
     # --- damage -------------------------------------------------------------------------------
     def cell_strain(self):
         """The cells' mean strains (6, n_cells) of the current u."""
@@ -230,13 +215,18 @@ class DamageModel(ElasticModel):
         if count == 0:
             return self.split(eps)
         grow, flags = grow[:count], flags[:count]
-        for bit, eps_f, softening, axis in ((1, self.eps_f, law.softening_strain, -1),
-                                            (2, self.eps_fc, law.compressive_softening_strain, 0)):
-            cells = grow[(flags & bit) > 0]
-            start = cells[np.isnan(eps_f[cells])]
-            if start.size:     # band width along the principal strain that starts it
-                direction = np.linalg.eigh(tensors(eps[:, start]))[1][:, :, axis]
-                eps_f[start] = softening(band_width(self._centre_grad[start], direction))
+        tension = np.isnan(self.eps_f[grow]) & (flags & 1 > 0)
+        compression = np.isnan(self.eps_fc[grow]) & (flags & 2 > 0)
+        starts = tension | compression
+        if starts.any():       # band width along the principal strain that starts it
+            start = grow[starts]
+            vectors = np.linalg.eigh(tensors(eps[:, start]))[1]
+            tension, compression = tension[starts], compression[starts]
+            grad = self._centre_grad[start]
+            self.eps_f[start[tension]] = law.softening_strain(
+                band_width(grad[tension], vectors[tension, :, -1]))
+            self.eps_fc[start[compression]] = law.compressive_softening_strain(
+                band_width(grad[compression], vectors[compression, :, 0]))
         step = np.empty((3, count))
         library().grow_damage(count, grow, self.kappa, self.eps_f, self.kappa_c, self.eps_fc,
                               law.kappa0, self.damage_t, self.damage_c, self.damage, step)
@@ -257,18 +247,23 @@ class DamageModel(ElasticModel):
         hit = self._by_class[self.damage[self._by_class] > 0]
         if hit.size == 0:
             return hit, None, None, None, (None, None, None)
-        self._position[hit] = np.arange(hit.size)
+        if not np.array_equal(hit, self._grouped[0]):   # damage grows: mostly the same cells
+            self._position[hit] = np.arange(hit.size)
+            self._grouped = (hit, self._groups(hit))
+        groups = self._grouped[1]
         eps = self.cell_strain() if eps is None else eps
-        if self._weighted_cells.size:
-            eps = eps.copy()
-            eps[:, self._weighted_cells] = (self._weighted_strain @ self._u).reshape(6, -1)
         w = eps.take(hit, axis=1)           # C order, as the kernels take it
+        if self._weighted_cells.size:
+            weighted = np.empty((6, self._weighted_cells.size))
+            library().cell_strains(weighted.shape[1], self.cell_nodes.shape[1],
+                                   *self._weighted_ops, self._u, weighted)
+            hit_weighted = self.damage[self._weighted_cells] > 0
+            w[:, self._position[self._weighted_cells[hit_weighted]]] = weighted[:, hit_weighted]
         m, dofs = hit.size, self._cell_dofs.shape[1]
         sig, pos, u_c = np.empty((6, m)), np.empty((6, m)), np.empty((m, dofs))
         library().split_cells(m, dofs, hit, self._cell_dofs, self._u, w, self.law.young,
                               self.law.poisson, sig, pos, u_c)
         rest_force = np.empty_like(u_c)
-        groups = self._groups(hit)
         for rows, rest in groups:
             rest_force[rows] = _apply(u_c[rows], rest)
         return hit, w, sig, pos, (u_c, rest_force, groups)
