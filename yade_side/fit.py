@@ -81,7 +81,8 @@ def calibrate(sample, target, params=None, loading=Loading(), tol=0.02, nu_tol=0
                 raise ValueError(f"iteration {it}, separation test: {t['balance']}")
             record.update(ft=t["peak"], fracture_energy=t["fracture_energy"],
                           seconds=c["seconds"] + t["seconds"])
-            line += (f" ft={t['peak'] / 1e6:.2f} MPa Gf={t['fracture_energy']:.1f} J/m²"
+            line += (f" ft={t['peak'] / 1e6:.2f} MPa Gf={t['fracture_energy']:.1f} J/m² "
+                     f"(balance closed to {100 * t['closure']:+.1f} %)"
                      f"{'' if t['separated'] else ' (NOT separated)'}")
         iterations.append(record)
         log(f"{line} ({record['seconds']:.1f} s)")

@@ -204,9 +204,20 @@ def fracture_record(test):
     """The energy balance of a separation test (None for a tension test to 70 % of the peak)."""
     if "fracture_energy" not in test:
         return None
-    keys = ("work", "elastic_end", "kinetic", "damping", "area", "work_of_fracture",
-            "strain_peak", "separated", "balance")
+    keys = ("work", "elastic_end", "kinetic", "damping", "links", "closure", "area",
+            "work_of_fracture", "strain_peak", "separated", "balance")
     return {k: test[k] for k in keys}
+
+
+def balance_line(test):
+    """The separation test's energy balance in one line."""
+    k0, k1 = test["kinetic"]
+    return (f"balance: in {test['work'] + k0:.4g} J (ends' work {test['work']:.4g}, kinetic "
+            f"{k0:.3g}); found elastic {test['elastic_end']:.4g}, kinetic {k1:.3g}, damping "
+            f"{test['damping']:.4g}, links {test['links']['total']:.4g} J (damage "
+            f"{test['links']['damage']:.4g}, deleted {test['links']['deleted']:.4g}, shear "
+            f"{test['links']['shear']:.4g}, plastic {test['links']['plastic']:.3g}): closure "
+            f"{100 * test['closure']:+.2f} %")
 
 
 def _write(out, radius, size, sample, target, loading, result, macro):
@@ -239,9 +250,12 @@ def _print_result(result, macro, out):
           f"fc={macro['fc'] / 1e6:.2f} MPa ft={macro['ft'] / 1e6:.2f} MPa{gf_text} "
           f"({len(result['iterations'])} fit iterations"
           f"{', NOT converged' if result['converged'] is False else ''}); results in {out}")
-    if result["tension"].get("balance"):
-        print(f"no Gf: {result['tension']['balance']} (work of fracture W/A "
-              f"{result['tension']['work_of_fracture']:.1f} J/m²)")
+    t = result["tension"]
+    if "links" in t:
+        print(balance_line(t) + ("" if t["separated"] else
+                                 "; NOT separated: the links' Gf is a lower bound"))
+    if t.get("balance"):
+        print(f"no Gf: {t['balance']} (work of fracture W/A {t['work_of_fracture']:.1f} J/m²)")
 
 
 def plot_curves(path, compression, tension, macro, radius):
