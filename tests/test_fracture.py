@@ -200,3 +200,36 @@ def test_link_meter_finds_a_contact_made_later_and_its_friction():
     lean = np.abs(f[:, 0]).max() * travel[0] / (2 * R) * travel[2]
     assert found["total"] + cpm_law().elasticEnergy() == pytest.approx(
         work, abs=formed + work / len(f) ** 2 + lean)
+
+
+def test_link_meter_sees_a_broken_pair_touch_again():
+    """A link pulled apart to deletion, then its spheres pressed together again and slid: YADE
+    gives the pair's interaction a new, frictional CpmPhys. The meter counts the link deleted
+    (with the energy it took) and measures the new contact as another one; the driver's work
+    over both legs equals the contact's elastic energy plus what the meter found dissipated,
+    to the bounds of the two tests above (the step of deletion, the step the contact forms in,
+    the lean of the shear stress, the trapezoid's second order)."""
+    from yade_side.dissipation import LinkMeter
+    from yade_side.scene import cpm_law
+    R, e0 = 0.01, 1e-4
+    _, driven = held_spheres([(0, 0, 0), (2 * R, 0, 0)], R)
+    O = yade.Omega()
+    meter = LinkMeter()
+    steps = 2000
+    O.bodies[driven].state.vel = (20 * e0 * 2 * R / (steps * O.dt), 0, 0)
+    x1, f1, work1 = drive(driven, meter, lambda: O.interactions.countReal())
+    gap = O.bodies[driven].state.pos[0] - 2 * R
+    start = O.iter                    # back by the gap and 1e-3 of strain, 5e-2 R along y
+    O.bodies[driven].state.vel = (-(gap + 2e-3 * R) / (steps * O.dt), 5e-2 * R / (steps * O.dt), 0)
+    x2, f2, work2 = drive(driven, meter, lambda: O.iter < start + steps)
+    found = meter.dissipated()
+    assert found["measured"] == 2 and found["deleted_count"] == 1
+    assert found["damage"] > 0 and found["deleted"] > 0 and found["shear"] > 0
+    deletion = np.linalg.norm(x1[-1] - x1[-2]) * np.linalg.norm(f1[-2])
+    first = np.flatnonzero(np.linalg.norm(f2, axis=1))[0]
+    formed = np.linalg.norm(x2[first] - x2[first - 1]) * np.linalg.norm(f2[first])
+    travel = np.abs(x2[-1] - x2[first])
+    lean = np.abs(f2[:, 1]).max() * travel[1] / (2 * R) * travel[0]
+    work = work1 + work2
+    assert found["total"] + cpm_law().elasticEnergy() == pytest.approx(
+        work, abs=deletion + formed + lean + work / min(len(f1), len(f2)) ** 2)

@@ -54,7 +54,7 @@ class LinkMeter:
         """Add the CPM interactions the scene has that the meter does not (each one's law must
         have run once, which sets its length and section): they count from now on. Walks the
         interactions only when their number has changed since the last walk (YADE counts them
-        in C++); an interaction is known by its pair and the step it was made in."""
+        in C++); an interaction is known by its pair and the step it was made real in."""
         O = import_yade().Omega()
         count = O.interactions.countReal()
         if count == self._count:
@@ -131,4 +131,7 @@ class LinkMeter:
 
 
 def _key(interaction):
-    return interaction.id1, interaction.id2, interaction.iterBorn
+    """An interaction's pair and the step it was made real in: YADE keeps a broken link's
+    interaction while the pair's bounds overlap, and gives it a new CpmPhys (and a new step)
+    when the spheres touch again."""
+    return interaction.id1, interaction.id2, interaction.iterMadeReal
