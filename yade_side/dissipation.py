@@ -18,8 +18,8 @@ of the equivalent strain:
 - normal plastic strain (the law's compression softening, off unless epsSoft < 0):
   σN dεNPl V (trapezoidal).
 Contacts made later (frictional, not cohesive: ω = 1, Coulomb's friction only) join the meter
-when it lists the scene's interactions again (`LinkMeter.relist`, when their number has
-changed); what one dissipates before it is found is missed. The trapezoidal terms want a sample every step.
+when it lists the scene's interactions again (`LinkMeter.relist`); what one dissipates before
+it is found is missed. The trapezoidal terms want a sample every step.
 """
 import math
 
@@ -41,7 +41,7 @@ class LinkMeter:
     end."""
 
     def __init__(self):
-        self._phys, self._keys, self._count = [], [], -1
+        self._phys, self._keys = [], []
         self.volume, self.young, self.shear_modulus = np.empty(0), np.empty(0), np.empty(0)
         self._start = self._last = np.empty((0, WIDTH))
         self._blocks = None
@@ -52,14 +52,10 @@ class LinkMeter:
 
     def relist(self):
         """Add the CPM interactions the scene has that the meter does not (each one's law must
-        have run once, which sets its length and section): they count from now on. Walks the
-        interactions only when their number has changed since the last walk (YADE counts them
-        in C++); an interaction is known by its pair and the step it was made real in."""
+        have run once, which sets its length and section): they count from now on. A walk over
+        the interactions (~1 µs each); each is known by its pair and the step it was made real
+        in."""
         O = import_yade().Omega()
-        count = O.interactions.countReal()
-        if count == self._count:
-            return
-        self._count = count
         CpmPhys = import_yade().wrapper.CpmPhys
         known = set(self._keys)
         new = [i for i in O.interactions if i.isReal and _key(i) not in known
