@@ -1,4 +1,5 @@
-"""Fracture energy of CPM packings (yade_side.fracture) against CPM's link law integrated exactly."""
+"""Fracture energy of CPM packings (yade_side.fracture) against CPM's link law integrated exactly,
+and the links' dissipation measured on them (yade_side.dissipation) against a driver's work."""
 import math
 import subprocess
 import sys

@@ -9,14 +9,14 @@ Gf = energy dissipated by the links / ligament area, where
 - the ligament area is the notched section (W − 2n) × T, the crack's projected area at full
   separation (Gf per projected area, as RILEM's work-of-fracture test defines it);
 - the energy dissipated by the links is measured on the links and on the contacts made later
-  (yade_side.dissipation: damage, slip and friction, what a deleted or released link takes), and the test's balance is checked: the
-  external work W_ext = ∫ F dΔ of the end groups (F the mean of the two end forces, Δ the
-  change of their distance; trapezoidal rule on every step) plus the initial kinetic energy of
-  the free spheres must equal, within CLOSURE, the elastic energy left in the links, the
-  kinetic energy of the free spheres, the energy taken by Cundall's damping
-  (O.energy['nonviscDamp']: numerical, not fracture; the driven end groups are not damped)
-  and the links' dissipation. A balance that does not close gives no Gf: a long step makes
-  energy in cracked links (docs/calibration.md);
+  (yade_side.dissipation: damage, slip and friction, what a deleted or released link takes),
+  and the test's balance is checked: the external work W_ext = ∫ F dΔ of the end groups (F
+  the mean of the two end forces, Δ the change of their distance; trapezoidal rule on every
+  step) plus the initial kinetic energy of the free spheres must equal, within CLOSURE, the
+  elastic energy left in the links, the kinetic energy of the free spheres, the energy taken
+  by Cundall's damping (O.energy['nonviscDamp']: numerical, not fracture; the driven end
+  groups are not damped) and the links' dissipation. A balance that does not close gives no
+  Gf: a long step makes energy in cracked links (docs/calibration.md);
 - full separation: the test goes on until |σ| has stayed below `residual` × the peak for as long
   a displacement as it took to reach the peak.
 
