@@ -90,11 +90,19 @@ class Parts:
     links_pending: bool        # the first step makes the cohesive links
     consistent: bool
     bars: object = None        # the DE members of the description (contracts.DEBars), or None
+    scene: object = None       # the description's DE scene
+    unweighted: tuple = None   # (mass, inertia) of every sphere of `ids` before any weighting
+    ref_pos: np.ndarray = None  # reference positions of `ids` where they are not read at build
+    new_links: np.ndarray = None   # (m, 2) ids of the links a zone grown in place made
+    initial_links: np.ndarray = None   # (m, 2) ids of the initial links, where not read
 
 
-def assemble(d):
+def assemble(d, grown_from=None):
     """The partners, the coupling and the stepper of the description `d`; raises BuildError
-    with every problem found before anything is stepped."""
+    with every problem found before anything is stepped. With `grown_from` (a Model), `d` is
+    that model's with a larger DE zone, built in its YADE scene (assemble_grown)."""
+    if grown_from is not None:
+        return assemble_grown(d, grown_from)
     from yade_side import import_yade
     from yade_side.bulk import BodySet
     O = import_yade().Omega()
@@ -106,7 +114,8 @@ def assemble(d):
     bar_ids = np.asarray(d.bars.place() if d.bars is not None else [], int)
     every = np.concatenate([ids, bar_ids])   # the bars' spheres are weighted and coupled too
     problems = [] if len(ids) else ["de: no sphere lies in the DE zone or the bridging domain"]
-    ref_pos = BodySet(every).ref_pos
+    placed = BodySet(every)
+    ref_pos = placed.ref_pos
     index = np.empty(0, int)
     if coupled and len(ids):
         index = _coupled_spheres(d, fe, ref_pos, problems)
@@ -135,7 +144,66 @@ def assemble(d):
         stepper = CoupledStepper(O.step, bridge, fe, coupling)
         inside = d.scene.attach(stepper.couple)
     return Parts(O, ids, fe, d.bridging, beta, index[index < len(ids)], bar_ids, stepper, dt,
-                 critical, relaxation, notes, inside, not links, consistent, d.bars)
+                 critical, relaxation, notes, inside, not links, consistent, d.bars, d.scene,
+                 (placed.mass[:len(ids)], placed.inertia[:len(ids)]))
+
+
+def assemble_grown(d, old):
+    """The model of `d` built in the running YADE scene of the model `old`, whose DE zone
+    `d`'s holds: the scene places the spheres `d` keeps that `old` did not have (after its
+    own, at their reference positions: DEScene.extend), they are linked as the first step of
+    a fresh scene links them (yade_side.scene.link_pairs, add_cohesive_links), every weight
+    goes from old's β to the new one (masses from their unweighted values), and the FE part,
+    the coupling and the stepper are made anew. Nothing else of the scene changes: the
+    caller writes the added spheres' state and their links' history."""
+    from yade_side.bulk import BodySet
+    from yade_side.scene import add_cohesive_links, link_pairs
+    p = old.parts
+    if d.bars is not None or p.bars is not None or d.fe is None or not len(p.ids):
+        raise BuildError(["a DE zone grown in place needs a coupled model without bars"])
+    consistent = d.coupling.consistent
+    fe = d.fe(d.bridging.alpha if consistent else None)
+    ids = np.asarray(d.scene.extend(d.bridging.covers, p.scene), int)
+    n_old = len(p.ids)
+    if not np.array_equal(ids[:n_old], p.ids):
+        raise BuildError(["de: the grown zone's scene does not keep the old model's spheres "
+                          "first"])
+    added = BodySet(ids[n_old:])
+    ref_pos = np.vstack([old.spheres.ref_pos, added.ref_pos])
+    unweighted = tuple(np.concatenate([a, b]) for a, b in
+                       zip(p.unweighted, (added.mass, added.inertia)))
+    problems = []
+    index = _coupled_spheres(d, fe, ref_pos, problems)
+    beta = d.bridging.beta(ref_pos) if consistent else np.ones(len(ids))
+    before = np.concatenate([p.beta, np.ones(len(added))])
+    dt, critical = _time_step(d, fe, beta, problems)
+    if problems:
+        raise BuildError(problems)
+    radius = np.concatenate([old.spheres.radius, added.radius])
+    new = np.zeros(len(ids), bool)
+    new[n_old:] = True
+    pairs = link_pairs(ref_pos, radius, new)
+    young, poisson = np.zeros(len(ids)), np.zeros(len(ids))
+    for j in np.unique(pairs):
+        material = p.O.bodies[int(ids[j])].material
+        young[j], poisson[j] = material.young / before[j], material.poisson  # (β in young)
+    made = add_cohesive_links(ids[pairs], np.linalg.norm(ref_pos[pairs[:, 1]]
+                                                         - ref_pos[pairs[:, 0]], axis=1),
+                              young[pairs], poisson[pairs])
+    new_links = np.array([(i.id1, i.id2) for i in made], int).reshape(-1, 2)
+    if consistent:
+        from yade_side.weighting import weight_links, weight_masses
+        changed = np.flatnonzero(beta != before)
+        weight_masses(ids[changed], beta[changed], tuple(u[changed] for u in unweighted))
+        weight_links(ids, beta, before, fresh=new_links)
+    bridge = BodySet(ids[index], ref_pos=ref_pos[index])
+    relaxation, notes = _relaxation(d, bridge, dt, critical)
+    coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation)
+    stepper = CoupledStepper(p.O.step, bridge, fe, coupling)
+    inside = d.scene.attach(stepper.couple)
+    return Parts(p.O, ids, fe, d.bridging, beta, index, np.empty(0, int), stepper, dt, critical,
+                 relaxation, notes, inside, False, consistent, None, d.scene, unweighted,
+                 ref_pos, new_links, np.vstack([old.damage.links, new_links]))
 
 
 class Model:
@@ -151,13 +219,13 @@ class Model:
         self.O, self.fe, self.bridging, self.stepper = p.O, p.fe, p.bridging, p.stepper
         self.dt, self.critical, self.relaxation = p.dt, p.critical, p.relaxation
         self.bridge_index, self.notes = p.bridge_index, list(p.notes)
-        self.spheres = BodySet(p.ids)
+        self.spheres = BodySet(p.ids, ref_pos=p.ref_pos)
         self.bridge = None if p.stepper is None else p.stepper.bridge
         self.in_de_zone = (np.zeros(len(p.ids), bool) if p.bridging is None
                            else p.bridging.zone.depth(self.spheres.ref_pos) < 0)
         self.damage = LinkDamage(p.ids, exclude=p.bar_ids)
         if not p.links_pending:
-            self.damage.record_initial()
+            self.damage.record_initial(p.initial_links)
         self.energy_bodies = [self.spheres]
         self.sensor_names, self.sensor_positions = [], np.empty((0, 3))
         self.sensor_order = None

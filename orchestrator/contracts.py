@@ -51,6 +51,12 @@ class DEScene(Protocol):
         """Make the scene's bodies; keep(centres) -> mask selects the spheres of a coupled
         model (None: all). Returns the ids of the spheres the model measures and couples."""
 
+    def extend(self, keep: Callable, earlier: "DEScene") -> np.ndarray:
+        """For a DE zone grown in place: add to the running scene the spheres keep(centres)
+        selects that the scene `earlier` (the model's before it grew) did not place, at their
+        reference positions; returns the ids of every sphere the model measures and couples,
+        earlier's first in its order."""
+
     def critical_dt(self, beta: np.ndarray) -> float:
         """The DE critical step, with the spheres' weights β (1 for the nodal weighting)."""
 

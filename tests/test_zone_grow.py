@@ -54,7 +54,7 @@ def growing_block(K):
     young = 3 * K * (1 - 2 * NU)
     dt = []
 
-    def build(mask):
+    def build(mask, grown_from=None, earlier=()):
         def fe(weight):
             model = ElasticModel(box_mesh_without_cells((0, 0, 0), (L, L, L), (N,) * 3, mask),
                                  young, NU, SCENE.density, weight=weight)
@@ -62,10 +62,11 @@ def growing_block(K):
             outer = np.flatnonzero(((x < 1e-9) | (x > L - 1e-9)).any(axis=1))
             dofs = (3 * outer[:, None] + np.arange(3)).ravel()
             return PrescribedFE(model, dofs, lambda t: field(model.nodes, t).ravel())
-        d = Description(BlockScene(SCENE), fe, Bridging(grid.zone(mask), 1, H),
+        keeps = [Bridging(grid.zone(m), 1, H).covers for m in earlier]
+        d = Description(BlockScene(SCENE, keeps), fe, Bridging(grid.zone(mask), 1, H),
                         CouplingSpec("full", 1.0, True, "consistent"), dt_safety=0.5,
                         dt=dt[0] if dt else None)
-        m = Model(assemble(d))
+        m = Model(assemble(d, grown_from))
         dt[:] = [m.dt]
         return m
 
@@ -139,9 +140,13 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     assert record["energy_before"] == pytest.approx(before, rel=1e-12)
     energies = [record["energy_after"]]
     # the converted cells that are DE zone now: their links carry the FE's strain
-    was = (np.abs(new.spheres.ref_pos[:, None, :] - old.spheres.ref_pos[None]).max(axis=2)
-           < 1e-9).any(axis=1)
-    converted = new.spheres.ids[new.in_de_zone & ~was]
+    def was(model):     # its spheres that the model before the conversion had
+        return (np.abs(model.spheres.ref_pos[:, None, :] - old.spheres.ref_pos[None])
+                .max(axis=2) < 1e-9).any(axis=1)
+    # grown in place: the old model's spheres first, as they were, then the added ones
+    assert np.array_equal(new.spheres.ids[:len(old.spheres)], old.spheres.ids)
+    assert was(new).sum() == len(old.spheres) and not was(new)[len(old.spheres):].any()
+    converted = new.spheres.ids[new.in_de_zone & ~was(new)]
     assert len(converted) == (5 ** 3 - 3 ** 3) * 8
     assert abs(link_stress(converted) / link_exact - 1) < 0.02
     stress = []
@@ -163,7 +168,7 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     # the grown zone's model started exactly at the conversion's time
     reference = block.build(block.zone)
     start_exact(reference, PRE * block.dt)
-    same = reference.spheres.ids[reference.in_de_zone & ~was]
+    same = reference.spheres.ids[reference.in_de_zone & ~was(reference)]
     exact_start = []
     for _ in range(200):
         reference.step()
@@ -347,3 +352,41 @@ def test_case_files_take_zone_grow_and_its_keys():
     assert (spec.zone, spec.grow_shear, spec.zone_ahead) == ("grow", True, 0.5)
     with pytest.raises(ValueError, match=r"\n  - zone.ahead = 0.0: must be in \(0, 1\]"):
         load_case(slab_toml, ["slab.zone=grow", "zone.ahead=0.0"])
+
+
+def test_a_zone_grown_in_place_is_the_scene_a_fresh_build_of_that_zone_makes():
+    """The grown zone's model, built in the running scene (orchestrator.builder.
+    assemble_grown: spheres added, linked, weights changed from the old β to the new), has
+    the links, masses, materials and coupled spheres of the same zone's model built in a fresh
+    scene: the same pairs, each link's reference length, cross-section, stiffnesses, E and G to
+    the last bits (a weight changed twice rounds twice), masses and materials exactly."""
+    from orchestrator.run.autozone import Tripped
+    from yade_side import import_yade
+    O = import_yade().Omega()
+    block, grid, _ = growing_block(lattice_bulk_modulus())
+    for _ in range(5):
+        block.step()
+    block.grow(Tripped(5, "test", grid.dilate(block.zone, 2) & ~grid.dilate(block.zone, 1)))
+
+    def scene(model):
+        """Links keyed by their ends' reference positions, and the spheres' mass, inertia and
+        young, in model's scene."""
+        at = {int(i): tuple(np.round(p / R, 6)) for i, p in zip(model.spheres.ids,
+                                                                 model.spheres.ref_pos)}
+        links = {tuple(sorted((at[i.id1], at[i.id2]))):
+                 np.array([getattr(i.phys, k) for k in ("refLength", "crossSection", "kn",
+                                                          "ks", "E", "G", "refPD",
+                                                          "epsFracture", "isCohesive")])
+                 for i in O.interactions if i.isReal}
+        bodies = {at[int(i)]: (O.bodies[int(i)].state.mass, O.bodies[int(i)].state.inertia[0],
+                               O.bodies[int(i)].material.young) for i in model.spheres.ids}
+        return links, bodies, sorted(at[int(i)] for i in model.bridge.ids), \
+            {tuple(sorted((at[a], at[b]))) for a, b in model.damage.links}
+
+    grown = scene(block.current)
+    fresh = scene(block.build(block.zone))
+    assert grown[0].keys() == fresh[0].keys() and len(grown[0]) > 0
+    for key, values in grown[0].items():
+        assert values == pytest.approx(fresh[0][key], rel=4e-16, abs=0)
+    assert grown[1] == fresh[1] and grown[2] == fresh[2]
+    assert grown[3] == fresh[3] == set(fresh[0])

@@ -26,11 +26,11 @@ def reattach_all():
 
 class BodySet:
     """A fixed set of spheres. Attributes read once: ids, mass, inertia (scalar, sphere),
-    radius, ref_pos (positions when the set was made). `rotation` accumulates the small-rotation
-    vector since then: θ(t+Δt) = θ(t) + Δt ω(t+Δt/2), the central-difference update of the
-    rotation that NewtonIntegrator applies to the orientation."""
+    radius, ref_pos (positions when the set was made, or those given). `rotation` accumulates
+    the small-rotation vector since then: θ(t+Δt) = θ(t) + Δt ω(t+Δt/2), the central-difference
+    update of the rotation that NewtonIntegrator applies to the orientation."""
 
-    def __init__(self, ids, direct=True):
+    def __init__(self, ids, direct=True, ref_pos=None):
         yade = import_yade()
         self._O = yade.Omega()
         self._subdomain = yade.wrapper.Subdomain()
@@ -44,7 +44,8 @@ class BodySet:
         self._direct = direct
         self.reattach()
         self.read()
-        self.ref_pos = self.state[:, _POS].copy()
+        self.ref_pos = (self.state[:, _POS].copy() if ref_pos is None
+                        else np.array(ref_pos, float).reshape(-1, 3))
         self.rotation = np.zeros((len(self.ids), 3))
         self.rotation_pred = self.rotation.copy()
         _LIVE.add(self)

@@ -28,10 +28,18 @@ class LinkDamage:
         self.initial = np.zeros(len(self.ids), int)
         self._links = np.empty((0, 2), int)
 
-    def record_initial(self):
-        self._links = self._cohesive_links(require_intact=False)
+    def record_initial(self, links=None):
+        """The initial links: the scene's cohesive ones now, or `links` ((m, 2) ids: those
+        of a DE zone grown in place, some broken since they were made)."""
+        self._links = (self._cohesive_links(require_intact=False) if links is None
+                       else self._kept(np.asarray(links, int).reshape(-1, 2)))
         self.initial = self._count(self._links)
         return self.initial
+
+    @property
+    def links(self):
+        """(m, 2) ids of the initial links."""
+        return self._links
 
     def _cohesive_links(self, require_intact):
         pairs, omega = cohesive_interactions()

@@ -177,6 +177,19 @@ def add_spheres(centres, radii, material):
     return np.asarray(ids, dtype=int)
 
 
+def growth_groups(centres, keeps):
+    """The indices of `centres` that each mask keeps(centres) adds to the ones before it, in
+    order (a DE zone's growth: each zone holds every earlier one's spheres, ValueError if not)."""
+    groups, placed = [], np.zeros(len(centres), bool)
+    for keep in keeps:
+        inside = np.asarray(keep(centres), bool)
+        if (placed & ~inside).any():
+            raise ValueError("a grown DE zone must hold every sphere of the zones before it")
+        groups.append(np.flatnonzero(inside & ~placed))
+        placed |= inside
+    return groups
+
+
 def packing_fraction(radii, volume):
     return float(np.sum(4.0 / 3.0 * np.pi * np.asarray(radii) ** 3) / volume)
 

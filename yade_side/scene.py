@@ -1,4 +1,8 @@
 """The YADE scene: engines for dynamics of cohesive-frictional CPM spheres."""
+import math
+
+import numpy as np
+
 from yade_side import import_yade
 
 # Cohesive links are made between spheres up to this factor of the sum of radii apart
@@ -83,6 +87,61 @@ def create_cohesive_links():
         if isinstance(engine, yade.wrapper.InteractionLoop):
             for functor in engine.geomDispatcher.functors:
                 functor.interactionDetectionFactor = 1.0
+
+
+def link_pairs(ref, radius, new):
+    """The pairs (m, 2) of indices into `ref` that the first step of a scene at the reference
+    positions `ref` (n, 3), of radii `radius`, would link (create_cohesive_links: centres
+    closer than INTERACTION_RADIUS × the sum of the radii), of which at least one is `new`
+    (mask): the links spheres added to a running scene need."""
+    from scipy.spatial import cKDTree
+    new = np.flatnonzero(new)
+    if len(new) == 0:
+        return np.empty((0, 2), int)
+    near = cKDTree(ref).query_ball_point(ref[new], INTERACTION_RADIUS * 2 * radius.max())
+    a = np.repeat(new, [len(n) for n in near])
+    b = np.concatenate([np.asarray(n, int) for n in near])
+    is_new = np.zeros(len(ref), bool)
+    is_new[new] = True
+    keep = (a != b) & ~(is_new[b] & (b < a)) & (
+        np.linalg.norm(ref[a] - ref[b], axis=1) < INTERACTION_RADIUS * (radius[a] + radius[b]))
+    return np.column_stack([a[keep], b[keep]])
+
+
+def add_cohesive_links(pairs, ref_length, young, poisson):
+    """Cohesive links between the bodies of `pairs` (m, 2) ids of a running scene, as its
+    first step made its links at the reference positions (create_cohesive_links), whatever
+    the bodies' positions now: Ip2 makes an interaction cohesive only before its
+    cohesiveThresholdIter (raised while they are made), and the law, at an interaction's
+    first step, sets its reference length, cross-section, reference penetration and
+    stiffnesses from the distance then; these are set here as the law would at
+    `ref_length` (m,), with the unweighted E = mean `young` and G = mean `poisson` × E of the
+    two ends ((m, 2) each: a weighted sphere's material carries its β), and the interactions
+    are made no longer fresh. Returns the interactions."""
+    yade = import_yade()
+    from yade import utils
+    O = yade.Omega()
+    ip2 = [f for e in O.engines if isinstance(e, yade.wrapper.InteractionLoop)
+           for f in e.physDispatcher.functors if isinstance(f, yade.wrapper.Ip2_CpmMat_CpmMat_CpmPhys)]
+    thresholds = [f.cohesiveThresholdIter for f in ip2]
+    for f in ip2:
+        f.cohesiveThresholdIter = O.iter + 1
+    try:
+        made = [utils.createInteraction(int(a), int(b)) for a, b in pairs]
+    finally:
+        for f, t in zip(ip2, thresholds):
+            f.cohesiveThresholdIter = t
+    E = 0.5 * (young[:, 0] + young[:, 1])
+    G = 0.5 * (poisson[:, 0] + poisson[:, 1]) * E
+    for i, length, e, g in zip(made, ref_length.tolist(), E.tolist(), G.tolist()):
+        geom, p = i.geom, i.phys
+        section = math.pi * min(geom.refR1, geom.refR2) ** 2
+        i.iterMadeReal = O.iter - 1
+        p.E, p.G, p.refLength, p.crossSection = e, g, length, section
+        p.refPD = geom.refR1 + geom.refR2 - length
+        p.kn, p.ks = section * e / length, section * g / length
+        p.epsFracture = p.epsCrackOnset * p.relDuctility
+    return made
 
 
 def settle_forces():

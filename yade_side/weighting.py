@@ -10,48 +10,79 @@ import numpy as np
 from yade_side import import_yade
 
 
-def weight_masses(ids, beta):
-    """Mass and inertia of each sphere `ids[j]` × beta[j] (call once)."""
+def weight_masses(ids, beta, unweighted=None):
+    """Mass and inertia of each sphere `ids[j]` = beta[j] × its unweighted ones: those it has
+    now, which must be unweighted (call once; spheres of β 1 are left as they are), or those
+    given, `unweighted` = (mass, scalar inertia) arrays (every sphere written)."""
     O = import_yade().Omega()
-    for j in np.flatnonzero(np.asarray(beta) < 1.0):
+    beta = np.asarray(beta, float)
+    if unweighted is None:
+        for j in np.flatnonzero(beta < 1.0):
+            state = O.bodies[int(ids[j])].state
+            state.mass, state.inertia = beta[j] * state.mass, beta[j] * state.inertia
+        return
+    for j, (mass, inertia) in enumerate(zip(*unweighted)):
         state = O.bodies[int(ids[j])].state
-        state.mass, state.inertia = beta[j] * state.mass, beta[j] * state.inertia
+        state.mass, state.inertia = beta[j] * mass, (beta[j] * inertia,) * 3
 
 
-def weight_links(ids, beta):
+def weight_links(ids, beta, before=None, fresh=()):
     """Cross-section and stiffnesses of every link between two of the spheres `ids` × the
-    mean β of the two, and the contacts made later alike (weight_contacts). Call once,
-    when the cohesive links exist."""
+    mean β of the two, and the contacts made later alike (weight_contacts). Call once, when
+    the cohesive links exist; or, for spheres that carried the weights `before` (a DE zone
+    grown in place; 1 for spheres just added), × the ratio of the mean β after to before: on
+    every interaction of a sphere whose β changed (a link: cross-section and stiffnesses; a
+    contact: E, G and stiffnesses, which its spheres' weighted materials gave it), and on the
+    links `fresh` ((m, 2) ids, made unweighted) × the mean β. Interactions with a sphere not
+    in `ids` are left as they are."""
     O = import_yade().Omega()
     ids, beta = np.asarray(ids, int), np.asarray(beta, float)
+    before = np.ones(len(ids)) if before is None else np.asarray(before, float)
     index = np.full(ids.max() + 1, -1)
     index[ids] = np.arange(len(ids))
+    fresh = np.asarray(fresh, int).reshape(-1, 2)
+    made = {(int(a), int(b)) for a, b in np.sort(fresh, axis=1)}
+    changed = beta != before
     index, n = index.tolist(), len(index)
-    for j in np.flatnonzero(beta < 1.0):      # the weighted spheres' links only
+    for j in np.flatnonzero(changed):         # the reweighted spheres' interactions only
         me = int(ids[j])
         for i in O.interactions.withBody(me):
             other = i.id2 if i.id1 == me else i.id1
             k = index[other] if other < n else -1
-            if k < 0 or not i.isReal or (beta[k] < 1.0 and other < me):  # (once per link)
+            if k < 0 or not i.isReal or (changed[k] and other < me) or \
+                    (min(me, other), max(me, other)) in made:    # (once per link)
                 continue
-            w = 0.5 * (beta[j] + beta[k])
+            w = (beta[j] + beta[k]) / (before[j] + before[k])
             p = i.phys
+            if p.isCohesive:
+                p.crossSection, p.kn, p.ks = w * p.crossSection, w * p.kn, w * p.ks
+            else:
+                p.E, p.G, p.kn, p.ks = w * p.E, w * p.G, w * p.kn, w * p.ks
+    for a, b in fresh:
+        ka, kb = index[a], index[b]
+        w = 0.5 * (beta[ka] + beta[kb])
+        if w != 1.0:
+            p = O.interactions[int(a), int(b)].phys
             p.crossSection, p.kn, p.ks = w * p.crossSection, w * p.kn, w * p.ks
-    weight_contacts(ids, beta)
+    weight_contacts(ids, beta, before)
 
 
-def weight_contacts(ids, beta):
+def weight_contacts(ids, beta, before=None):
     """The contacts made from now on weighted like the links: each sphere `ids[j]` with
-    beta[j] < 1 gets its own copy of its material with young × beta[j]; YADE's Ip2 functor
-    takes the mean of the two materials' young, so a new contact's stiffness is × the mean β
-    of its spheres. After the links exist (weight_links calls it): a material read when the
-    links are made would weight them twice. Unweighted, a contact closing on a band sphere of
-    mass β m had 1/√β times its frequency: the step's margin gone at small β (a medium slab at
-    40 m/s blew up so at 0.3 × the critical step, a broken band link closing again)."""
+    beta[j] < 1 gets its own copy of its material with young × beta[j] (with `before`, the
+    weights its material carries now: young × beta[j] / before[j] where they differ); YADE's
+    Ip2 functor takes the mean of the two materials' young, so a new contact's stiffness is ×
+    the mean β of its spheres. After the links exist (weight_links calls it): a material read
+    when the links are made would weight them twice. Unweighted, a contact closing on a band
+    sphere of mass β m had 1/√β times its frequency: the step's margin gone at small β (a
+    medium slab at 40 m/s blew up so at 0.3 × the critical step, a broken band link closing
+    again)."""
     yade = import_yade()
     O = yade.Omega()
-    for j in np.flatnonzero(np.asarray(beta) < 1.0):   # set-up only
+    beta = np.asarray(beta, float)
+    before = np.ones(len(beta)) if before is None else np.asarray(before, float)
+    for j in np.flatnonzero(beta != before):   # set-up only
         body = O.bodies[int(ids[j])]
         values = {k: v for k, v in body.material.dict().items() if k not in ("id", "label")}
-        values["young"] *= float(beta[j])
+        values["young"] *= float(beta[j] / before[j])
         body.material = O.materials[O.materials.append(type(body.material)(**values))]

@@ -7,31 +7,54 @@ from cases.block3d.spec import UniformOverlap, cubic_lattice
 class BlockScene:
     """The block's spheres (orchestrator.contracts.DEScene): a dense packing (or a cubic
     lattice) of the box [0, de_hi], of which the model keeps those `keep` holds, with
-    elastic CPM links that never damage."""
+    elastic CPM links that never damage; `earlier`: as the slab's (cases.slab.model.SlabScene)."""
     time_step = (None, "")
 
-    def __init__(self, spec):
-        self.spec = spec
+    def __init__(self, spec, earlier=()):
+        self.spec, self.earlier, self._packed = spec, list(earlier), None
 
     def place(self, keep):
         from yade_side import import_yade
-        from yade_side.packing import add_spheres, dense_box_packing, packing_fraction, sphere_arrays
+        from yade_side.packing import growth_groups, packing_fraction
         from yade_side.scene import reset_scene
         yade, s = import_yade(), self.spec
-        if s.packing == "cubic":
-            centres, radii = cubic_lattice(s.de_hi, s.radius)
-        else:
-            centres, radii = sphere_arrays(dense_box_packing((0, 0, 0), s.de_hi, s.radius))
+        centres, radii = self._packing()
         fraction = packing_fraction(radii, np.prod(s.de_hi))
-        if keep is not None:
-            inside = keep(centres)
-            centres, radii = centres[inside], radii[inside]
+        self.index = (np.arange(len(radii)) if keep is None
+                      else np.concatenate(growth_groups(centres, [*self.earlier, keep])))
         reset_scene()
-        mat = yade.Omega().materials.append(yade.wrapper.CpmMat(
+        self.material = yade.Omega().materials.append(yade.wrapper.CpmMat(
             young=s.contact_young, poisson=s.contact_poisson, density=s.density / fraction,
             frictionAngle=0.5, sigmaT=1e30, epsCrackOnset=1e30, relDuctility=1.0,
             neverDamage=True))
-        return add_spheres(centres, radii, mat)
+        self.ids = self._add(self.index)
+        return self.ids
+
+    def extend(self, keep, earlier):
+        """The spheres `keep` holds that the scene `earlier` had not placed, added to the
+        running scene; returns every sphere's id, earlier's first."""
+        from yade_side.packing import growth_groups
+        self._packed = earlier._packed
+        centres, _ = self._packing()
+        was = np.isin(np.arange(len(centres)), earlier.index)
+        added = growth_groups(centres, [lambda x: was, keep])[1]
+        self.material, self.index = earlier.material, np.concatenate([earlier.index, added])
+        self.ids = np.concatenate([earlier.ids, self._add(added)])
+        return self.ids
+
+    def _packing(self):
+        """(centres, radii) of every sphere the block may hold (made once)."""
+        from yade_side.packing import dense_box_packing, sphere_arrays
+        s = self.spec
+        if self._packed is None:
+            self._packed = (cubic_lattice(s.de_hi, s.radius) if s.packing == "cubic" else
+                            sphere_arrays(dense_box_packing((0, 0, 0), s.de_hi, s.radius)))
+        return self._packed
+
+    def _add(self, index):
+        from yade_side.packing import add_spheres
+        centres, radii = self._packing()
+        return add_spheres(centres[index], radii[index], self.material)
 
     def critical_dt(self, beta):
         from yade import utils

@@ -21,7 +21,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from cases.slab.geometry import cell_grid
+from cases.slab.geometry import cell_grid, slab_bridging
 from cases.slab.model import SlabModel, run_built
 from cases.slab.search import cannot_pay, fallback
 from cases.slab.zone import check, zone_grid
@@ -38,9 +38,10 @@ def growing_model(spec, resumed=None, log=print):
     dt = None if resumed is None else float(resumed.info["dt"])   # every zone: the first's
     packs = None                                                   # and its packings
 
-    def build(mask):
+    def build(mask, grown_from=None, earlier=()):
         nonlocal dt, packs
-        m = SlabModel(spec, "coupled", zone_grid(base, mask), dt, packs)
+        keeps = [slab_bridging(spec, zone_grid(base, m)).covers for m in earlier]
+        m = SlabModel(spec, "coupled", zone_grid(base, mask), dt, packs, grown_from, keeps)
         dt, packs = m.dt, m.scene.packs
         return m
 

@@ -76,27 +76,32 @@ def fe_parts(spec, grid, weight):
 class SlabScene:
     """The YADE scene of the slab (orchestrator.contracts.DEScene): the slab's spheres (all, or
     those a coupled model keeps), the impactor, and for the full model the supports; `packs`:
-    the spec's make_packings, if already made (the same for every zone)."""
+    the spec's make_packings, if already made (the same for every zone); `earlier`: the keep
+    masks of the zones a grown zone went through, in order (a resumed run places the spheres
+    in the order the growth added them: the scene it loads numbers them so)."""
     time_step = (None, "")
 
-    def __init__(self, spec, bridging, packs=None):
-        self.spec, self.bridging = spec, bridging
+    def __init__(self, spec, bridging, packs=None, earlier=()):
+        self.spec, self.bridging, self.earlier = spec, bridging, list(earlier)
         self.packs = make_packings(spec) if packs is None else packs
         self.elastic_links = 0
         self.fe_bars = None           # the FE part's embedded bars, once it is built
 
     def place(self, keep):
         from yade_side.material import cpm_material
-        from yade_side.packing import add_spheres
+        from yade_side.packing import add_spheres, growth_groups
         from yade_side.scene import reset_scene
         p = self.packs
-        self.slab_index = (np.arange(len(p.slab_radii)) if keep is None
-                           else np.flatnonzero(keep(p.slab_centres)))
+        groups = ([np.arange(len(p.slab_radii))] if keep is None
+                  else growth_groups(p.slab_centres, [*self.earlier, keep]))
+        self.slab_index = np.concatenate(groups)
         reset_scene()
-        mat = cpm_material(concrete(self.spec), p.slab_fraction)
-        self.slab_ids = add_spheres(p.slab_centres[self.slab_index],
-                                    p.slab_radii[self.slab_index], mat)
+        self.material = mat = cpm_material(concrete(self.spec), p.slab_fraction)
+        first = add_spheres(p.slab_centres[groups[0]], p.slab_radii[groups[0]], mat)
         self.impactor_ids = add_spheres(p.impactor_centres, p.impactor_radii, mat)
+        later = self.slab_index[len(groups[0]):]
+        self.slab_ids = np.concatenate([first, add_spheres(p.slab_centres[later],
+                                                           p.slab_radii[later], mat)])
         self.support_ids = np.empty(0, int)
         if keep is None:        # simple supports: spheres touching x = 0 and x = 2.5 hold z
             from yade_side.scene import block_dofs
@@ -106,6 +111,21 @@ class SlabScene:
         if self.spec.reinforced:
             from yade_side.bars import shield_bars
             shield_bars(self.slab_ids, self.impactor_ids)
+        return self.slab_ids
+
+    def extend(self, keep, earlier):
+        """The slab's spheres `keep` holds that the scene `earlier` (of the model whose zone
+        grew) had not placed, added to the running scene after its bodies; returns the slab's
+        ids, earlier's first. The rest (engines, impactor) is earlier's."""
+        from yade_side.packing import add_spheres, growth_groups
+        p = self.packs
+        was = np.isin(np.arange(len(p.slab_radii)), earlier.slab_index)
+        added = growth_groups(p.slab_centres, [lambda x: was, keep])[1]
+        self.__dict__.update({k: getattr(earlier, k) for k in (
+            "material", "impactor_ids", "impactor", "support_ids", "elastic_links")})
+        self.slab_index = np.concatenate([earlier.slab_index, added])
+        self.slab_ids = np.concatenate([earlier.slab_ids, add_spheres(
+            p.slab_centres[added], p.slab_radii[added], self.material)])
         return self.slab_ids
 
     def critical_dt(self, beta):
@@ -155,10 +175,10 @@ def check_ranks(spec, model):
                          f"{model} one (its FE runs under mpirun: docs/mpi.md)")
 
 
-def description(spec, model, grid=None, dt=None, packs=None):
+def description(spec, model, grid=None, dt=None, packs=None, earlier=()):
     """The builder's description of the slab's `model` (full or coupled), with the DE zone
     of `grid` (default: the spec's fixed zone, model_grid), and the time step `dt` (default: the
-    spec's dt_safety × the critical step); `packs`: SlabScene's."""
+    spec's dt_safety × the critical step); `packs`, `earlier`: SlabScene's."""
     if model not in MODELS:
         raise ValueError(f"model must be 'full' or 'coupled', got {model!r}")
     check_ranks(spec, model)
@@ -167,7 +187,7 @@ def description(spec, model, grid=None, dt=None, packs=None):
                          "model has FE outside its DE zone)")
     grid = model_grid(spec) if grid is None else grid
     bridging = slab_bridging(spec, grid)
-    scene = SlabScene(spec, bridging, packs)
+    scene = SlabScene(spec, bridging, packs, earlier)
 
     def coupled_fe(weight):
         from fenicsx_side.distributed import on_rank_zero
@@ -187,12 +207,15 @@ def description(spec, model, grid=None, dt=None, packs=None):
 
 
 class SlabModel(Model):
-    """The slab's full or coupled model, built, with its sensors."""
+    """The slab's full or coupled model, built, with its sensors; with `grown_from` (a
+    SlabModel), in its running scene (orchestrator.builder.assemble_grown); `earlier`: see
+    SlabScene."""
 
-    def __init__(self, spec, model, grid=None, dt=None, packs=None):
+    def __init__(self, spec, model, grid=None, dt=None, packs=None, grown_from=None,
+                 earlier=()):
         t0 = perf_counter()
-        d, self.grid = description(spec, model, grid, dt, packs)
-        super().__init__(assemble(d))
+        d, self.grid = description(spec, model, grid, dt, packs, earlier)
+        super().__init__(assemble(d, grown_from))
         self.de_bars, self.bar_ids = d.bars, self.parts.bar_ids
         scene = d.scene
         self.spec, self.model, self.scene = spec, model, scene

@@ -1,25 +1,24 @@
 """A DE zone that grows during the run (`--zone grow`): the automatic zone's indicators
 (orchestrator.run.autozone) trip as there, and instead of starting again from t = 0 the run
-goes on from the same step in the model of the grown zone, built afresh through the one
-builder and given the old model's state (docs/auto-zone.md):
-- bodies of both models (matched by reference position): their state; their interactions:
-  the CPM history, a link the old scene had lost (broken) erased, and contacts made again
-  with their reference penetration (yade_side.transfer);
-- bodies new to the DE (the converted FE cells and the new band): the FE field at their
-  centre, position ref + k u, velocity k v, rotation and spin h u, h v (½ curl), and outside
-  the new band the gap between the old DE's edge and that field, carried on harmonically
-  (continued_gaps); their links are made at reference positions, so the positions give
-  them their normal strain exactly, and CPM damages them from that strain at their first
-  step (along each link's own direction); a cell's compression damage becomes their normal
-  plastic strain (link_compaction); with `shear` they take the FE's affine shear strain too
-  (by default not: it adds 2-3 × the energy the cells had, as a random packing's links
-  under an affine shear do; docs/auto-zone.md);
+goes on from the same step in the model of the grown zone, built in the same YADE scene
+through the one builder (orchestrator.builder.assemble_grown) and given the old model's state
+(docs/auto-zone.md):
+- the DE's bodies and interactions stay as they are (links, their history, contacts);
+- bodies new to the DE (the converted FE cells and the new band), added to the scene: the
+  FE field at their centre, position ref + k u, velocity k v, rotation and spin h u, h v
+  (½ curl), and outside the new band the gap between the old DE's edge and that field,
+  carried on harmonically (continued_gaps); their links take the reference lengths of a
+  fresh scene, so the positions give them their normal strain exactly, and CPM damages them
+  from that strain at their first step (along each link's own direction); a cell's
+  compression damage becomes their normal plastic strain (link_compaction); with `shear`
+  they take the FE's affine shear strain too (by default not: it adds 2-3 × the energy the
+  cells had, as a random packing's links under an affine shear do; docs/auto-zone.md);
 - FE nodes and cells that stay FE (matched by coordinates): u, v, t and the damage history;
 - the coupling: the band spheres' accumulated rotations (the old band's kept, the new ones'
   h u), the energy meter.
-The new model's stepper, weights and multiplier operators are the builder's: the band's
-factorisation is made once per conversion. YADE's own step counter restarts (what counts
-the run's steps is the run loop's; periodic engines keep the run's phase).
+The new model's FE part, stepper and multiplier operators are the builder's: the band's
+factorisation is made once per conversion. YADE's own step counter goes on (what counts the
+run's steps is the run loop's; periodic engines keep the run's phase).
 """
 import logging
 from dataclasses import dataclass
@@ -32,7 +31,7 @@ from orchestrator.run.autozone import Tripped, Watch
 from orchestrator.run.restart import add_splits
 
 run_log = logging.getLogger("orchestrator.run")
-GROWTH_STATE_VERSION = 1    # of what checkpoint_state writes
+GROWTH_STATE_VERSION = 2    # of what checkpoint_state writes (2: bodies in the growth's order)
 
 
 class ZoneLimit(Exception):
@@ -52,99 +51,71 @@ def match(old, new, tol):
     return np.where(np.isfinite(dist), index, -1)
 
 
-@dataclass
-class Snapshot:
-    """What a model's state is made of, read before the next model's build resets the DE
-    scene (the FE partner, a Python object, is kept whole)."""
-    ref: np.ndarray          # (n, 3) reference positions of every DE body
-    state: np.ndarray        # (n, 13) their state
-    links: object            # yade_side.transfer.Links
-    fe: object
-    bridge_ref: np.ndarray
-    rotation: np.ndarray
-    exchange: tuple          # (to_fe, net)
-
-
-def bodies(model):
-    """(ids, reference positions) of every DE body the model integrates."""
-    sets = model.energy_bodies
-    return (np.concatenate([b.ids for b in sets]),
-            np.vstack([b.ref_pos for b in sets]))
-
-
-def snapshot(model):
-    from yade_side.transfer import capture_links
-    ids, ref = bodies(model)
-    for b in model.energy_bodies:
-        b.read()
-    stepper = model.stepper
-    return Snapshot(ref, np.vstack([b.state for b in model.energy_bodies]).copy(),
-                    capture_links(ids), model.fe, stepper.bridge.ref_pos.copy(),
-                    stepper.bridge.rotation.copy(),
-                    (stepper.exchange.to_fe, stepper.exchange.net))
-
-
-def carry(snap, model, tol, shear=False):
-    """Put the built `model` (a grown zone) in the state of `snap` (with `shear`, the new
-    links take the FE's affine shear strain); returns what was carried (counts of bodies and
-    links) and the new links (id pairs)."""
+def carry(old, new, tol, shear=False):
+    """Put `new`, the model of a grown zone built in the running scene of `old`
+    (orchestrator.builder.assemble_grown), in old's state: the spheres it added take old's FE
+    field and the gap carried on (continued_gaps), their links the FE's compaction (and with
+    `shear` its affine shear strain); the FE nodes and cells that stay FE, the band's
+    accumulated rotations and the exchange's state are old's. Returns the counts of what was
+    carried."""
+    from yade_side import import_yade
     from yade_side.bulk import rotation_quaternion
-    from yade_side.transfer import EPS_N_PL, EPS_T, lever_arms_are_radii, restore_links
-    old_fe, fe = snap.fe, model.fe
-    ids, ref = bodies(model)
-    old_of = match(snap.ref, ref, tol)
-    added = np.flatnonzero(old_of < 0)
-    state = np.empty((len(ids), 13))
-    state[old_of >= 0] = snap.state[old_of[old_of >= 0]]
+    from yade_side.memory import HistoryBlocks, find_offset
+    from yade_side.transfer import EPS_N_PL, EPS_T, SAMPLE, lever_arms_are_radii
+    old_fe, fe, s = old.fe, new.fe, new.spheres
+    ref, radius = s.ref_pos, s.radius
+    added = np.arange(len(old.spheres), len(s))
+    state = s.read()
     k, h = old_fe.point_operators(ref[added])
     state[added, 0:3] = ref[added] + (k @ old_fe.u).reshape(-1, 3)
     state[added, 3:6] = (k @ old_fe.v).reshape(-1, 3)
     state[added, 6:9] = (h @ old_fe.v).reshape(-1, 3)
     state[added, 9:13] = rotation_quaternion((h @ old_fe.u).reshape(-1, 3))
-    radius = np.concatenate([b.radius for b in model.energy_bodies])
-    band = match(model.stepper.bridge.ref_pos, ref[added], tol) >= 0
+    band = match(new.stepper.bridge.ref_pos, ref[added], tol) >= 0
     gaps = continued_gaps(ref, radius, added[~band], added[band],
                           lambda j: (state[j, 0:3] - ref[j], state[j, 3:6]),
                           lambda j: old_fe.covers(ref[j]),
                           lambda j: _field(old_fe, ref[j]))
     state[added[~band], 0:6] += gaps
-    start = 0
-    for b in model.energy_bodies:
-        b.state[:] = state[start:start + len(b)]
-        b.write()
-        start += len(b)
-    radii_levers = lever_arms_are_radii()
-
-    def new_history(ends, normal, values):
-        """The FE's state on each new link: the compaction (epsNPl) of the cell at its
-        middle and, with `shear`, the affine shear strain (epsT) at its new end."""
+    s.write()
+    links = new.parts.new_links
+    if len(links) and (old_fe.carries_damage or shear):
+        row = np.full(s.ids.max() + 1, -1)
+        row[s.ids] = np.arange(len(s))
+        ends = row[links]
+        O = import_yade().Omega()
+        made = [O.interactions[int(a), int(b)] for a, b in links]
+        blocks = HistoryBlocks([i.phys for i in made], find_offset(made, SAMPLE))
+        values = blocks.read()
+        axis = ref[ends[:, 1]] - ref[ends[:, 0]]
+        length = np.linalg.norm(axis, axis=1)
+        normal = axis / length[:, None]
         values[:, EPS_N_PL] = link_compaction(old_fe, 0.5 * ref[ends].sum(axis=1), normal)
         if shear:
-            at = ref[np.where(old_of[ends[:, 0]] < 0, ends[:, 0], ends[:, 1])]
-            length = np.linalg.norm(ref[ends[:, 1]] - ref[ends[:, 0]], axis=1)
-            lever = radius[ends].sum(axis=1) if radii_levers else length
+            at = ref[np.where(ends[:, 0] >= len(old.spheres), ends[:, 0], ends[:, 1])]
+            lever = radius[ends].sum(axis=1) if lever_arms_are_radii() else length
             values[:, EPS_T] = affine_shear_strain(old_fe.gradient_at(at), normal,
                                                    lever / length)
-
-    counts, new_links = restore_links(snap.links, ids, old_of, new_history)
+        blocks.write(values)
     nodes = match(old_fe.nodes, fe.nodes, tol)
     cells = match(_centres(old_fe), _centres(fe), tol)
     if (nodes < 0).any() or (cells < 0).any():
         raise RuntimeError("the grown zone's FE part has nodes or cells the old one did not")
     fe.take_state(old_fe, nodes, cells)
-    bridge = model.stepper.bridge
-    kept = match(snap.bridge_ref, bridge.ref_pos, tol)
+    old_bridge, bridge = old.stepper.bridge, new.stepper.bridge
+    kept = match(old_bridge.ref_pos, bridge.ref_pos, tol)
     rotation = np.empty((len(bridge), 3))
-    rotation[kept >= 0] = snap.rotation[kept[kept >= 0]]
+    rotation[kept >= 0] = old_bridge.rotation[kept[kept >= 0]]
     if (kept < 0).any():
         h = old_fe.point_operators(bridge.ref_pos[kept < 0])[1]
         rotation[kept < 0] = (h @ old_fe.u).reshape(-1, 3)
     bridge.rotation[:] = rotation
     bridge.rotation_pred[:] = rotation
     bridge.read()
-    model.stepper.exchange.to_fe, model.stepper.exchange.net = snap.exchange
-    return {"bodies_kept": int(np.count_nonzero(old_of >= 0)), "bodies_added": int(len(added)),
-            **{f"links_{k}": v for k, v in counts.items()}}, new_links
+    new.stepper.exchange.to_fe = old.stepper.exchange.to_fe
+    new.stepper.exchange.net = old.stepper.exchange.net
+    return {"bodies_kept": len(old.spheres), "bodies_added": len(added),
+            "links_new": len(links)}
 
 
 def continued_gaps(ref, radius, free, zero, old_motion, covered, fe_motion):
@@ -245,8 +216,10 @@ def _centres(fe):
 
 class GrowingModel:
     """A coupled model whose DE zone grows during the run (orchestrator.contracts.RunModel:
-    the run loop steps it as any model). build(mask) -> Model: the model of a zone (a mask
-    of `grid`), every one with the run's time step; the zone grows at each trip over the
+    the run loop steps it as any model). build(mask, grown_from=None, earlier=()) -> Model:
+    the model of a zone (a mask of `grid`), every one with the run's time step, built afresh
+    (its spheres placed in the order the zones `earlier` and then its own add them) or in the
+    running scene of the model `grown_from`; the zone grows at each trip over the
     flagged cells and `levels.margin` more, inside `limit`; budget(segments, n) says why
     growing at step n cannot pay (None if it can; segments: (spheres, steps) of each zone
     run so far). Bodies, nodes and cells of two models match within `tol` (m); `shear`:
@@ -265,7 +238,7 @@ class GrowingModel:
         if resumed is not None:         # a checkpoint's growth (checkpoint_state): its zone
             self.zones = [z.copy() for z in resumed.zones]
             self.zone = self.zones[-1].copy()
-        self.current = build(self.zone)
+        self.current = build(self.zone, earlier=self.zones[:-1])
         if self.current.parts.inside_step:
             raise ValueError("a zone that grows during the run needs the coupling outside "
                              "YADE's step (its forces are read at a step of zero length)")
@@ -321,24 +294,21 @@ class GrowingModel:
         self._record_peaks()
         settle_forces()
         before = old.energy_parts()
-        t_read = perf_counter()
-        snap = snapshot(old)
-        t_read = perf_counter() - t_read
         if self._bind_sensors is None:
             self._bind_sensors = _sensor_binding(old)
         self.segments.append(segment)
         self._earlier = add_splits(self._earlier, old.seconds)
         t_build = perf_counter()
-        new = self.build(grown)
+        new = self.build(grown, grown_from=old)
         t_build = perf_counter() - t_build
         t_carry = perf_counter()
-        carried, new_links = carry(snap, new, self.tol, self.shear)
+        carried = carry(old, new, self.tol, self.shear)
         t_carry = perf_counter() - t_carry
         self._bind_sensors(new)
         settle_forces()
         keep_engine_phase(n)
         after = new.energy_parts()
-        normal, shear = link_energy(new_links)
+        normal, shear = link_energy(new.parts.new_links)
         energy_before, energy_after = sum(before.values()), sum(after.values())
         self.watch = Watch(new, grid, self.ft, self.levels)
         self.watch.steps = n
@@ -352,8 +322,8 @@ class GrowingModel:
             "energy_parts_before": before, "energy_parts_after": after,
             "new_links_energy": {"normal": normal, "shear": shear},
             "strain_energy_ratio": strain_energy_ratio(before, after),
-            "carried": carried, "wall_s": perf_counter() - t0, "read_s": t_read,
-            "build_s": t_build, "carry_s": t_carry})
+            "carried": carried, "wall_s": perf_counter() - t0, "build_s": t_build,
+            "carry_s": t_carry})
         line = (f"zone grown at step {n} ({tripped.indicator}): {int(grown.sum())} cells, "
                 f"{new.sphere_count()} spheres (+{carried['bodies_added']}); energy "
                 f"{energy_before:.6g} J → {energy_after:.6g} J")
