@@ -58,7 +58,7 @@ def derive(raw):
         if "conversion" in runs:          # one conversion of the zone grown during the run
             v = runs["conversion"]
             per_scale[scale]["conversion"] = {k: v[k] for k in (
-                "spheres_before", "spheres_after", "conversion_s", "read_wall_s", "build_wall_s",
+                "spheres_before", "spheres_after", "conversion_s", "build_wall_s",
                 "carry_wall_s", "wall_s", "grown_step_s", "conversion_steps")}
     threads = raw["threads"]
     one = threads.get("1", {}).get("s_per_step")
@@ -247,17 +247,17 @@ def _conversion_table(per_scale):
               "The default grown zone (`slab --model coupled`, docs/auto-zone.md) converts the "
               "ring of FE cells around its start zone, a few steps into the run; its cost on "
               "the same clock as the steps, and in steps of the grown model. Of it, wall time: "
-              "read (the old model's links and states), build (the grown model's, through "
-              "the builder), carry (the state into it).", "",
-              "| scale | spheres before | after | conversion (s) | read (s) | build (s) | "
-              "carry (s) | grown model's step (ms) | conversion in its steps |",
-              "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+              "build (the grown model's, through the builder, in the running scene), carry "
+              "(the state into what is new).", "",
+              "| scale | spheres before | after | conversion (s) | build (s) | carry (s) | "
+              "grown model's step (ms) | conversion in its steps |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for scale, s in per_scale.items():
         if "conversion" in s:
             v = s["conversion"]
             lines.append(f"| {scale} | {v['spheres_before']:,} | {v['spheres_after']:,} | "
-                         f"{v['conversion_s']:.2f} | {v['read_wall_s']:.2f} | "
-                         f"{v['build_wall_s']:.2f} | {v['carry_wall_s']:.2f} | "
+                         f"{v['conversion_s']:.2f} | {v['build_wall_s']:.2f} | "
+                         f"{v['carry_wall_s']:.2f} | "
                          f"{_ms(v['grown_step_s'])} | {v['conversion_steps']:.0f} |")
     return lines
 

@@ -184,8 +184,8 @@ def conversion_cost(task):
     if len(m.conversions) > 1:
         raise RuntimeError("the zone grew again while its steps were timed")
     return {"task": task, "spheres_before": before, "spheres_after": after,
-            "conversion_s": seconds, "read_wall_s": record["read_s"],
-            "build_wall_s": record["build_s"], "carry_wall_s": record["carry_s"],
+            "conversion_s": seconds, "build_wall_s": record["build_s"],
+            "carry_wall_s": record["carry_s"],
             "wall_s": record["wall_s"], "grown_step_s": timing["median_s"],
             "conversion_steps": seconds / timing["median_s"],
             "peak_rss_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,

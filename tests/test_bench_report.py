@@ -105,7 +105,7 @@ def test_a_conversion_is_judged_in_steps_of_the_grown_model():
     for seconds, steps, met in ((0.6, 12, False), (0.4, 8, True)):
         r["scales"]["paper"]["conversion"] = {
             "spheres_before": 12_000, "spheres_after": 20_000, "conversion_s": seconds,
-            "read_wall_s": 0.1, "build_wall_s": 0.3, "carry_wall_s": 0.1, "wall_s": seconds,
+            "build_wall_s": 0.4, "carry_wall_s": 0.1, "wall_s": seconds,
             "grown_step_s": 0.05,
             "conversion_steps": seconds / 0.05}
         d = derive(r)
@@ -114,7 +114,7 @@ def test_a_conversion_is_judged_in_steps_of_the_grown_model():
         table = markdown(dict(d, raw=r, mode="full", date_utc="today", bench_wall_s=60.0,
                               machine_at_start={"cpus": 2, "load_average": (0.1, 0, 0)},
                               machine_at_end={"load_average": (0.2, 0, 0)}))
-        assert (f"| paper | 12,000 | 20,000 | {seconds:.2f} | 0.10 | 0.30 | 0.10 | 50.00 | "
+        assert (f"| paper | 12,000 | 20,000 | {seconds:.2f} | 0.40 | 0.10 | 50.00 | "
                 f"{steps} |") in table
 
 

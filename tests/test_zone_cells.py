@@ -112,3 +112,22 @@ def test_mesh_without_cells_refuses_bad_masks():
         box_mesh_without_cells(P0, P1, N, np.zeros((10, 8), bool))
     with pytest.raises(ValueError, match="every cell"):
         box_mesh_without_cells(P0, P1, N, np.ones(N, bool))
+
+
+def test_the_nearest_cells_give_the_depth_over_every_cell_bit_for_bit():
+    """Equal square cells: the depth from the cells a Chebyshev tree finds nearest is the
+    minimum over every cell, to the last bit, on random zones and points, those on cell faces
+    and corners included."""
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        n = (int(rng.integers(5, 30)), int(rng.integers(5, 30)), 2)
+        grid = CellGrid(P0, (n[0] * 0.0625, n[1] * 0.0625, 0.28), n)
+        mask = rng.random(grid.shape) < rng.uniform(0.1, 0.6)
+        mask[0, 0] = mask[-1, -1] = True
+        zone = grid.zone(mask)
+        assert zone._tree is not None
+        x = rng.uniform(-0.5, 1.5, (5000, 3)) * np.array([n[0] * 0.0625, n[1] * 0.0625, 0.28])
+        x[:2000, :2] = np.round(x[:2000, :2] / 0.03125) * 0.03125
+        fast = zone.depth(x)
+        zone._tree = None                   # every cell
+        assert np.array_equal(fast, zone.depth(x))

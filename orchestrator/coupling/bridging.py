@@ -62,6 +62,8 @@ class CellZone:
     One cell gives exactly BoxZone's depth.
     """
     CHUNK = 1 << 21     # points × cells × axes per block of the depth computation
+    NEAREST = 4         # cells whose exact depth is taken, where a tree finds the nearest (4:
+                        # a corner's ties)
 
     def __init__(self, lo, hi, axes=(0, 1)):
         self.lo = np.atleast_2d(np.asarray(lo, float))
@@ -73,9 +75,20 @@ class CellZone:
         if np.any(self.hi[:, self.axes] <= self.lo[:, self.axes]):
             raise ValueError(f"CellZone: every cell's hi must exceed its lo along axes {self.axes}")
         self._lo, self._hi = self.lo[:, self.axes], self.hi[:, self.axes]
+        # cells of one size, equal along the axes: a cell's depth is its centre's Chebyshev
+        # distance less the half-size, so a tree finds the few cells that can be the nearest
+        size = self._hi - self._lo
+        self._tree = None
+        if len(self._lo) > self.NEAREST and np.allclose(size, size[0, 0], rtol=1e-12, atol=0):
+            from scipy.spatial import cKDTree
+            self._tree = cKDTree(0.5 * (self._lo + self._hi))
 
     def depth(self, x):
         x = np.atleast_2d(x)[:, self.axes]
+        if self._tree is not None:      # the exact depth over the tree's nearest cells
+            near = self._tree.query(x, k=self.NEAREST, p=np.inf)[1]
+            p = x[:, None, :]
+            return np.maximum(self._lo[near] - p, p - self._hi[near]).max(axis=2).min(axis=1)
         out = np.empty(len(x))
         step = max(1, self.CHUNK // (len(self._lo) * len(self.axes)))
         for start in range(0, len(x), step):
