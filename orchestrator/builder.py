@@ -176,7 +176,7 @@ def assemble_grown(d, old):
     index = _coupled_spheres(d, fe, ref_pos, problems)
     beta = d.bridging.beta(ref_pos) if consistent else np.ones(len(ids))
     before = np.concatenate([p.beta, np.ones(len(added))])
-    dt, critical = _time_step(d, fe, beta, problems)
+    dt, critical = _time_step(d, fe, beta, problems, _mode_on(old.fe, fe))
     if problems:
         raise BuildError(problems)
     radius = np.concatenate([old.spheres.radius, added.radius])
@@ -388,9 +388,11 @@ def _coupled_spheres(d, fe, ref_pos, problems):
     return index
 
 
-def _time_step(d, fe, beta, problems):
+def _time_step(d, fe, beta, problems, start=None):
+    """dt and the critical steps; `start`: where the FE's eigenvalue iteration starts."""
     de_critical = d.scene.critical_dt(beta)
-    fe_critical = fe.critical_dt() if fe is not None else np.inf
+    fe_critical = (np.inf if fe is None else fe.critical_dt() if start is None
+                   else fe.critical_dt(start))
     critical = {"de": de_critical, "fe": None if fe is None else fe_critical}
     dt, source = (d.dt, d.dt_source) if d.dt is not None else d.scene.time_step
     try:
@@ -399,6 +401,20 @@ def _time_step(d, fe, beta, problems):
         problems.extend(str(e).split("\n"))
         dt = None
     return dt, critical
+
+
+def _mode_on(old, fe):
+    """The dominant mode of the FE part `old` (its critical step's) on the nodes of `fe`,
+    which `old` has (a grown zone's FE: the old one less cells), 3 dofs per node; None if it
+    has none or a node of `fe` is not one of old's."""
+    from scipy.spatial import cKDTree
+    mode = getattr(old, "dominant_mode", None)
+    if mode is None or len(mode) != 3 * len(old.nodes):
+        return None
+    gap, at = cKDTree(old.nodes).query(fe.nodes)
+    if gap.max(initial=0) > 1e-9 * np.abs(old.nodes).max():
+        return None
+    return mode.reshape(-1, 3)[at].ravel()
 
 
 def _relaxation(d, bridge, dt, critical):

@@ -41,6 +41,28 @@ def test_critical_dt_matches_a_dense_eigensolve(cell):
     assert m.critical_dt() == pytest.approx(2 / omega_max, rel=1e-8)
 
 
+def test_critical_dt_started_from_another_models_mode_is_the_same():
+    """A grown zone's FE part is the old one less cells: its critical step, started from the
+    old part's dominant mode on its nodes (or from a mode that is not its own), is the one
+    found from SLEPc's own start, to the eigenvalue's tolerance."""
+    from fenicsx_side.cells import box_mesh_without_cells
+    dirichlet = [(face(0, 0.0), (0, 1, 2))]
+    whole = ElasticModel(box_mesh((0, 0, 0), (0.6, 0.4, 0.3), (6, 4, 3)), E, 0.3, RHO,
+                         dirichlet=dirichlet)
+    removed = np.zeros((6, 4, 3), bool)
+    removed[2:4, 1:3, :] = True
+    part = ElasticModel(box_mesh_without_cells((0, 0, 0), (0.6, 0.4, 0.3), (6, 4, 3), removed),
+                        E, 0.3, RHO, dirichlet=dirichlet)
+    whole.critical_dt()
+    at = [int(np.argmin(np.linalg.norm(whole.nodes - x, axis=1))) for x in part.nodes]
+    cold = part.critical_dt()
+    assert part.critical_dt(whole.dominant_mode.reshape(-1, 3)[at].ravel()) == \
+        pytest.approx(cold, rel=1e-10)
+    rng = np.random.default_rng(0)
+    assert part.critical_dt(rng.standard_normal(3 * len(part.nodes))) == \
+        pytest.approx(cold, rel=1e-10)
+
+
 def exact_chain(u0, h, dt, times):
     """Right-going solution of the discrete chain with initial nodal displacement u0 (far
     from the ends): u(t) = Σ_k û(k) e^{i(kx − ω(k) t)}, sin(ω dt/2) = C sin(kh/2)."""
