@@ -157,13 +157,14 @@ def assemble_grown(d, old):
     the coupling and the stepper are made anew. Nothing else of the scene changes: the
     caller writes the added spheres' state and their links' history."""
     from yade_side.bulk import BodySet
-    from yade_side.scene import add_cohesive_links, link_pairs
+    from yade_side.scene import add_cohesive_links, link_pairs, sort_afresh
     p = old.parts
     if d.bars is not None or p.bars is not None or d.fe is None or not len(p.ids):
         raise BuildError(["a DE zone grown in place needs a coupled model without bars"])
     consistent = d.coupling.consistent
     fe = d.fe(d.bridging.alpha if consistent else None)
     ids = np.asarray(d.scene.extend(d.bridging.covers, p.scene), int)
+    sort_afresh()
     n_old = len(p.ids)
     if not np.array_equal(ids[:n_old], p.ids):
         raise BuildError(["de: the grown zone's scene does not keep the old model's spheres "

@@ -89,6 +89,17 @@ def create_cohesive_links():
                 functor.interactionDetectionFactor = 1.0
 
 
+def sort_afresh():
+    """Bodies were added to a running scene: its collider sorts its bounds afresh at the next
+    step (doSort) instead of inserting the new ones, which it does by moving each new bound
+    through the sorted ones: O(added × all) (measured: 3,840 spheres added to 76,800, 8.2 s
+    by insertion, 1.2 s sorted afresh; one step of the 80,640 takes 0.2 s)."""
+    yade = import_yade()
+    for engine in yade.Omega().engines:
+        if isinstance(engine, yade.wrapper.InsertionSortCollider):
+            engine.doSort = True
+
+
 def link_pairs(ref, radius, new):
     """The pairs (m, 2) of indices into `ref` that the first step of a scene at the reference
     positions `ref` (n, 3), of radii `radius`, would link (create_cohesive_links: centres
