@@ -190,18 +190,19 @@ def test_slab_budget_counts_sphere_steps_spent_and_one_whole_run_of_the_last_zon
 
 def test_a_growing_zone_counts_its_conversions_in_its_budget():
     """Full model 1e7 sphere steps. Zones of 2,000 spheres for 100 steps, then 3,000 for 50
-    (one conversion, counted as CONVERSION_STEPS = 100 steps of 3,000 spheres), asking at
-    step 150 for another: 6.5e5 spent, at least 3,000 × (100 + 850) = 2.85e6 to come: 3.5e6,
-    over zone.cost 0.34 (3.4e6), which the sphere steps alone (2.9e6) would not reach."""
+    (one conversion, counted as CONVERSION_STEPS = 60 steps of 3,000 spheres), asking at
+    step 150 for another: 5.3e5 spent, at least 3,000 × (60 + 850) = 2.73e6 to come: 3.26e6,
+    over zone.cost 0.32 (3.2e6), which the sphere steps alone (2.9e6) would not reach."""
     from cases.slab import SlabSpec
     from cases.slab.grow import CONVERSION_STEPS, over_budget
-    assert CONVERSION_STEPS == 100
+    assert CONVERSION_STEPS == 60
     segments = [(2000, 100), (3000, 50)]
     assert over_budget(segments, 150, 10_000, SlabSpec(steps=1000)) is None
     assert over_budget(segments, 150, 10_000, SlabSpec(steps=1000, zone_cost=0.0)) is None
-    why = over_budget(segments, 150, 10_000, SlabSpec(steps=1000, zone_cost=0.34))
-    assert why == ("6.5e+05 sphere steps run (conversions counted as 100 steps each) and at "
-                   "least 2.85e+06 to come reach zone.cost = 0.34 × the full model's 1e+07")
+    assert over_budget(segments, 150, 10_000, SlabSpec(steps=1000, zone_cost=0.33)) is None
+    why = over_budget(segments, 150, 10_000, SlabSpec(steps=1000, zone_cost=0.32))
+    assert why == ("5.3e+05 sphere steps run (conversions counted as 60 steps each) and at "
+                   "least 2.73e+06 to come reach zone.cost = 0.32 × the full model's 1e+07")
 
 
 @pytest.mark.parametrize("kwargs, message", [

@@ -188,10 +188,10 @@ def resumed_growth(out, inputs, grid, start, limit):
 
 
 # What a conversion (the grown model's build and the state carried into it) costs in steps of
-# the grown model, as the budget counts it: measured 90-110 when the trip levels were set
-# against the ensembles, 77-79 now (`make bench`); kept until those tables are run again
-# (docs/auto-zone.md, "What a conversion costs").
-CONVERSION_STEPS = 100
+# the grown model, as the budget counts it: the first conversion at each scale in `make bench`
+# (the most: later ones, in larger zones, cost fewer steps of theirs; docs/auto-zone.md,
+# "What a conversion costs")
+CONVERSION_STEPS = 60
 
 
 def over_budget(segments, n, full_spheres, spec):
