@@ -9,9 +9,11 @@ to time, e.g. ["diagonal", "full"]) and `output` (time the run loop's output wor
 `conversion` (model "coupled"), instead: the default grown zone's cost of one conversion
 (conversion_cost).
 """
+import cProfile
 import json
 import math
 import os
+import pstats
 import resource
 import sys
 import tempfile
@@ -167,7 +169,8 @@ def conversion_cost(task):
     zone and the margin's ring of cells around it, `warmup` steps into the run, timed on the
     clock and against the median step of the grown model (`steps` steps after it): the
     conversion's cost in steps of the model it makes. The impactor falls CONVERSION_GAP
-    first: what a conversion costs does not depend on the damage."""
+    first: what a conversion costs does not depend on the damage. With "profile": true, the
+    conversion's profile (cProfile, by cumulative time) goes to stderr, its time with it."""
     from cases.slab import SlabSpec
     from cases.slab.grow import growing_model
     from orchestrator.run.autozone import Tripped
@@ -176,8 +179,14 @@ def conversion_cost(task):
     for _ in range(task["warmup"]):
         m.step()
     before = m.sphere_count()
+    profile = cProfile.Profile() if task.get("profile") else None
     c0 = clock()
+    if profile:
+        profile.enable()
     m.grow(Tripped(m.steps, "bench: the start zone's ring", m.zone.copy()))
+    if profile:
+        profile.disable()
+        pstats.Stats(profile, stream=sys.stderr).sort_stats("cumulative").print_stats(40)
     seconds = clock() - c0
     record, after = m.conversions[-1], m.sphere_count()
     timing = timed_steps(m, 2, task["steps"])

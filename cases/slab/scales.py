@@ -88,7 +88,10 @@ class Concrete:
 
 @functools.cache
 def concrete_set(scale, name):
-    """The set `name` of `scale`, from its calibration record; None if the scale has none."""
+    """The set `name` of `scale`, from its calibration record; None if the scale has none.
+    Where the record has no Gf (its separation test's balance failed at the calibration's
+    step), `SCALE-NAME-separation.json` gives it: the same set's separation test at the slab's
+    own step and shear release (calibrations/README.md), its params the record's."""
     path = CALIBRATIONS / f"{scale}-{name}.json"
     if not path.is_file():
         return None
@@ -96,7 +99,15 @@ def concrete_set(scale, name):
     m = record["measured"]
     cpm = {k: v for k, v in record["params"].items() if k != "density"}
     curve = record["curves"]["compression"]
-    return Concrete(cpm, m["nu"], m["fc"], m["ft"], m.get("fracture_energy"),
+    gf = m.get("fracture_energy")
+    separation = CALIBRATIONS / f"{scale}-{name}-separation.json"
+    if gf is None and separation.is_file():
+        test = json.loads(separation.read_text())
+        if test["params"] != record["params"]:
+            raise ValueError(f"{separation}: params are not those of {path.name}: not the "
+                             f"same CPM set")
+        gf = test["measured"]["fracture_energy"]
+    return Concrete(cpm, m["nu"], m["fc"], m["ft"], gf,
                     str(path.relative_to(Path(__file__).parents[2])),
                     (np.array(curve["strain"]), np.array(curve["stress"]), record["size"][0],
                      m["E_ends"]))
