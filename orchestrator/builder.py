@@ -93,7 +93,7 @@ class Parts:
     scene: object = None       # the description's DE scene
     unweighted: tuple = None   # (mass, inertia) of every sphere of `ids` before any weighting
     ref_pos: np.ndarray = None  # reference positions of `ids` where they are not read at build
-    new_links: np.ndarray = None   # (m, 2) ids of the links a zone grown in place made
+    new_links: list = None     # the interactions (YADE's) a zone grown in place made
     initial_links: np.ndarray = None   # (m, 2) ids of the initial links, where not read
 
 
@@ -204,7 +204,7 @@ def assemble_grown(d, old):
     inside = d.scene.attach(stepper.couple)
     return Parts(p.O, ids, fe, d.bridging, beta, index, np.empty(0, int), stepper, dt, critical,
                  relaxation, notes, inside, False, consistent, None, d.scene, unweighted,
-                 ref_pos, new_links, np.vstack([old.damage.links, new_links]))
+                 ref_pos, made, np.vstack([old.damage.links, new_links]))
 
 
 class Model:

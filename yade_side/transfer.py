@@ -1,8 +1,6 @@
 """What a DE zone grown in place (orchestrator.run.grow) writes into the links it made, and
 reads of them: where the FE's state goes in a CPM link's history (yade_side.memory), their
 elastic energy, and the scene's shear kinematics."""
-import numpy as np
-
 from yade_side import import_yade
 
 # the 19 history doubles (memory.HISTORY): 7 scalars, then sigmaT, Fs, epsTPl, epsT, whose
@@ -12,14 +10,14 @@ EPS_T = slice(16, 19)
 SAMPLE = 256   # links on which the history's place in memory is verified
 
 
-def link_energy(pairs):
-    """(normal, shear) elastic energy of the links `pairs` (id1, id2), as the law's
-    elasticEnergy() sums it: ½ |Fn|²/kn + ½ |Fs|²/ks with the forces of the last step."""
-    O = import_yade().Omega()
+def link_energy(links):
+    """(normal, shear) elastic energy of the interactions `links` (YADE's), as the law's
+    elasticEnergy() sums it: ½ |Fn|²/kn + ½ |Fs|²/ks with the forces of the last step; a link
+    broken since it was made counts 0."""
     normal = shear = 0.0
-    for a, b in np.asarray(pairs, int).reshape(-1, 2).tolist():
-        if O.interactions.has(a, b) and O.interactions[a, b].isReal:   # else broken now
-            p = O.interactions[a, b].phys
+    for i in links:
+        if i.isReal:
+            p = i.phys
             normal += 0.5 * p.normalForce.squaredNorm() / p.kn
             shear += 0.5 * p.shearForce.squaredNorm() / p.ks
     return normal, shear

@@ -58,7 +58,6 @@ def carry(old, new, tol, shear=False):
     `shear` its affine shear strain); the FE nodes and cells that stay FE, the band's
     accumulated rotations and the exchange's state are old's. Returns the counts of what was
     carried."""
-    from yade_side import import_yade
     from yade_side.bulk import rotation_quaternion
     from yade_side.memory import HistoryBlocks, find_offset
     from yade_side.transfer import EPS_N_PL, EPS_T, SAMPLE, lever_arms_are_radii
@@ -78,13 +77,11 @@ def carry(old, new, tol, shear=False):
                           lambda j: _field(old_fe, ref[j]))
     state[added[~band], 0:6] += gaps
     s.write()
-    links = new.parts.new_links
-    if len(links) and (old_fe.carries_damage or shear):
+    made = new.parts.new_links
+    if made and (old_fe.carries_damage or shear):
         row = np.full(s.ids.max() + 1, -1)
         row[s.ids] = np.arange(len(s))
-        ends = row[links]
-        O = import_yade().Omega()
-        made = [O.interactions[int(a), int(b)] for a, b in links]
+        ends = row[np.array([(i.id1, i.id2) for i in made])]
         blocks = HistoryBlocks([i.phys for i in made], find_offset(made, SAMPLE))
         values = blocks.read()
         axis = ref[ends[:, 1]] - ref[ends[:, 0]]
@@ -115,7 +112,7 @@ def carry(old, new, tol, shear=False):
     new.stepper.exchange.to_fe = old.stepper.exchange.to_fe
     new.stepper.exchange.net = old.stepper.exchange.net
     return {"bodies_kept": len(old.spheres), "bodies_added": len(added),
-            "links_new": len(links)}
+            "links_new": len(made)}
 
 
 def continued_gaps(ref, radius, free, zero, old_motion, covered, fe_motion):
