@@ -26,7 +26,6 @@ PLANS = {
 IMPACT_AFTER_S = 5e-4     # the second window: 0.5 ms into the run, the slab cracking under the impactor
 THREADS = (1, 2)
 CONVERSION_STEPS = 100    # steps of the grown model timed after a conversion
-TIMING_GF = 100.0         # J/m², the FE damage law's Gf where the scale has none (timing only)
 TIMEOUT_S = 1800
 # `--quick` fails when the medium coupled step is slower than bench/results.json's by more
 REGRESSION = 1.15
@@ -51,17 +50,6 @@ def worker(task, threads=1):
     return result
 
 
-def damage_spec(scale):
-    """The default coupled slab of `scale` with the FE that cracks; where the scale's concrete
-    has no measured Gf (paper: its separation test gives none), TIMING_GF: the cost does not
-    depend on Gf (the law runs over every cell each step)."""
-    from cases.slab.scales import concrete_set
-    spec = {"scale": scale, "fe_material": "damage"}
-    if concrete_set(scale, "plain").fracture_energy is None:
-        spec["fracture_energy"] = TIMING_GF
-    return spec
-
-
 def measure(plan):
     raw = {"scales": {}, "threads": {}}
     for scale, (warmup, steps) in plan.items():
@@ -70,7 +58,8 @@ def measure(plan):
             "full": worker(dict(base, model="full", output=True)),
             "coupled": worker(dict(base, model="coupled", output=True,
                                    variants=["diagonal", "full"])),
-            "coupled_damage": worker(dict(base, model="coupled", spec=damage_spec(scale))),
+            "coupled_damage": worker(dict(base, model="coupled",
+                                          spec={"scale": scale, "fe_material": "damage"})),
             "conversion": worker(dict(base, model="coupled", conversion=True,
                                       steps=min(steps, CONVERSION_STEPS))),
         }

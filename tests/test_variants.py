@@ -152,3 +152,30 @@ def test_compare_refuses_runs_of_two_concretes(tmp_path):
         load([tmp_path / "full-old"], [tmp_path / "coupled-gf"])
     full, coupled = load([tmp_path / "full-old"], [tmp_path / "coupled-plain"])
     assert full[1].spec["concrete"] == coupled[1].spec["concrete"] == "plain"
+
+
+def test_the_paper_set_takes_its_gf_from_its_separation_test_at_the_slabs_step(tmp_path,
+                                                                               monkeypatch):
+    """The paper record has no Gf (its balance failed at the calibration's step); the same
+    set's separation test at the slab's step closes its balance within CLOSURE and gives it
+    (a lower bound: not separated). A separation record of other params is refused."""
+    from cases.slab import scales
+    from yade_side.fracture import CLOSURE
+    record = json.loads((scales.CALIBRATIONS / "paper-plain.json").read_text())
+    test = json.loads((scales.CALIBRATIONS / "paper-plain-separation.json").read_text())
+    assert record["measured"]["fracture_energy"] is None and test["params"] == record["params"]
+    assert abs(test["separation"]["closure"]) <= CLOSURE and not test["separation"]["separated"]
+    paper = scales.concrete_set("paper", "plain")
+    assert paper.fracture_energy == test["measured"]["fracture_energy"]
+    assert paper.compressive_strength == record["measured"]["fc"]     # the rest: the record's
+    monkeypatch.setattr(scales, "CALIBRATIONS", tmp_path)
+    scales.concrete_set.cache_clear()
+    try:
+        (tmp_path / "paper-plain.json").write_text(json.dumps(record))
+        test["params"]["young"] *= 2
+        (tmp_path / "paper-plain-separation.json").write_text(json.dumps(test))
+        with pytest.raises(ValueError, match=r"paper-plain-separation\.json: params are not "
+                                             r"those of paper-plain\.json"):
+            scales.concrete_set("paper", "plain")
+    finally:
+        scales.concrete_set.cache_clear()

@@ -188,9 +188,9 @@ def resumed_growth(out, inputs, grid, start, limit):
 
 
 # What a conversion (the grown model's build and the state carried into it) costs in steps of
-# the grown model, as the budget counts it: the first conversion at each scale, 50-55 steps
-# (bench.worker's conversion task), rounded up; later ones, in larger zones, cost fewer steps
-# of theirs (docs/auto-zone.md, "What a conversion costs")
+# the grown model, as the budget counts it: the first conversion at each scale, 45-56 steps
+# (`make bench`), rounded up; later ones, in larger zones, cost fewer steps of theirs
+# (docs/auto-zone.md, "What a conversion costs")
 CONVERSION_STEPS = 60
 
 
