@@ -179,15 +179,22 @@ def add_spheres(centres, radii, material):
 
 def growth_groups(centres, keeps):
     """The indices of `centres` that each mask keeps(centres) adds to the ones before it, in
-    order (a DE zone's growth: each zone holds every earlier one's spheres, ValueError if not)."""
-    groups, placed = [], np.zeros(len(centres), bool)
+    order (a DE zone's growth)."""
+    groups = []
     for keep in keeps:
-        inside = np.asarray(keep(centres), bool)
-        if (placed & ~inside).any():
-            raise ValueError("a grown DE zone must hold every sphere of the zones before it")
-        groups.append(np.flatnonzero(inside & ~placed))
-        placed |= inside
+        groups.append(added_by(keep, centres, np.concatenate(groups) if groups else []))
     return groups
+
+
+def added_by(keep, centres, placed):
+    """The indices of `centres` that the mask keep(centres) holds and the indices `placed` do
+    not; ValueError if it does not hold every placed one (a grown zone holds the earlier)."""
+    inside = np.asarray(keep(centres), bool)
+    was = np.zeros(len(centres), bool)
+    was[np.asarray(placed, int)] = True
+    if (was & ~inside).any():
+        raise ValueError("a grown DE zone must hold every sphere of the zones before it")
+    return np.flatnonzero(inside & ~was)
 
 
 def packing_fraction(radii, volume):

@@ -33,11 +33,9 @@ class BlockScene:
     def extend(self, keep, earlier):
         """The spheres `keep` holds that the scene `earlier` had not placed, added to the
         running scene; returns every sphere's id, earlier's first."""
-        from yade_side.packing import growth_groups
+        from yade_side.packing import added_by
         self._packed = earlier._packed
-        centres, _ = self._packing()
-        was = np.isin(np.arange(len(centres)), earlier.index)
-        added = growth_groups(centres, [lambda x: was, keep])[1]
+        added = added_by(keep, self._packing()[0], earlier.index)
         self.material, self.index = earlier.material, np.concatenate([earlier.index, added])
         self.ids = np.concatenate([earlier.ids, self._add(added)])
         return self.ids

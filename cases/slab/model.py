@@ -117,10 +117,9 @@ class SlabScene:
         """The slab's spheres `keep` holds that the scene `earlier` (of the model whose zone
         grew) had not placed, added to the running scene after its bodies; returns the slab's
         ids, earlier's first. The rest (engines, impactor) is earlier's."""
-        from yade_side.packing import add_spheres, growth_groups
+        from yade_side.packing import add_spheres, added_by
         p = self.packs
-        was = np.isin(np.arange(len(p.slab_radii)), earlier.slab_index)
-        added = growth_groups(p.slab_centres, [lambda x: was, keep])[1]
+        added = added_by(keep, p.slab_centres, earlier.slab_index)
         self.__dict__.update({k: getattr(earlier, k) for k in (
             "material", "impactor_ids", "impactor", "support_ids", "elastic_links")})
         self.slab_index = np.concatenate([earlier.slab_index, added])
