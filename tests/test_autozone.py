@@ -245,19 +245,28 @@ def test_slab_budget_counts_sphere_steps_spent_and_one_whole_run_of_the_last_zon
 
 def test_a_growing_zone_counts_its_conversions_in_its_budget():
     """Full model 1e7 sphere steps. Zones of 2,000 spheres for 100 steps, then 3,000 for 50
-    (one conversion, counted as CONVERSION_STEPS = 60 steps of 3,000 spheres), asking at
-    step 150 for another: 5.3e5 spent, at least 3,000 × (60 + 850) = 2.73e6 to come: 3.26e6,
-    over zone.cost 0.32 (3.2e6), which the sphere steps alone (2.9e6) would not reach."""
+    (one conversion: 60 steps of the first grown zone, 3,000 spheres, and 6 of its own:
+    1.98e5), asking at step 150 for another: 5.48e5 spent, at least 1.98e5 + 3,000 × 850 =
+    2.748e6 to come: 3.296e6, over zone.cost 0.32 (3.2e6), which the sphere steps alone
+    (2.9e6) would not reach. A later conversion's fixed part stays that of the first zone."""
     from cases.slab import SlabSpec
-    from cases.slab.grow import CONVERSION_STEPS, over_budget
-    assert CONVERSION_STEPS == 60
+    from cases.slab.grow import conversion_cost, over_budget
+    assert conversion_cost(3000, 3000) == 198_000
+    assert conversion_cost(3000, 9000) == 60 * 3000 + 6 * 9000
     segments = [(2000, 100), (3000, 50)]
     assert over_budget(segments, 150, 10_000, SlabSpec(steps=1000)) is None
     assert over_budget(segments, 150, 10_000, SlabSpec(steps=1000, zone_cost=0.0)) is None
     assert over_budget(segments, 150, 10_000, SlabSpec(steps=1000, zone_cost=0.33)) is None
     why = over_budget(segments, 150, 10_000, SlabSpec(steps=1000, zone_cost=0.32))
-    assert why == ("5.3e+05 sphere steps run (conversions counted as 60 steps each) and at "
-                   "least 2.73e+06 to come reach zone.cost = 0.32 × the full model's 1e+07")
+    assert why == ("5.48e+05 sphere steps run (each conversion counted as 60 steps of the "
+                   "first grown zone and 6 of its own) and at least 2.748e+06 to come reach "
+                   "zone.cost = 0.32 × the full model's 1e+07")
+    # a second conversion, to 9,000 spheres, at step 170: its fixed part is the first zone's
+    segments = [(2000, 100), (3000, 50), (9000, 20)]
+    spent = 2000 * 100 + 3000 * 50 + 9000 * 20 + 198_000 + (180_000 + 54_000)
+    rest = 180_000 + 54_000 + 9000 * 830
+    assert over_budget(segments, 170, 10_000, SlabSpec(steps=1000, zone_cost=(spent + rest + 1) / 1e7)) is None
+    assert over_budget(segments, 170, 10_000, SlabSpec(steps=1000, zone_cost=(spent + rest) / 1e7))
 
 
 @pytest.mark.parametrize("kwargs, message", [

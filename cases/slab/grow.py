@@ -187,24 +187,37 @@ def resumed_growth(out, inputs, grid, start, limit):
     return ResumedGrowth(info, arrays)
 
 
-# What a conversion (the grown model's build and the state carried into it) costs in steps of
-# the grown model, as the budget counts it: the first conversion at each scale, 45-56 steps
-# (`make bench`), rounded up; later ones, in larger zones, cost fewer steps of theirs
-# (docs/auto-zone.md, "What a conversion costs")
+# What a conversion (the grown model's build and the state carried into it) costs, as the
+# budget counts it, in sphere steps: a fixed part, CONVERSION_STEPS steps of the first grown
+# zone (the FE part and the band made anew are as large at every conversion; the first
+# conversion at each scale costs 45-56 steps of its zone, `make bench`, rounded up), plus
+# CONVERSION_GROWTH steps of the zone it makes (what grows with the zone: its spheres' weights,
+# sets and depths; 1.6 steps at medium scale and 5.9 at paper scale in the runs' conversions,
+# docs/auto-zone.md, "What a conversion costs")
 CONVERSION_STEPS = 60
+CONVERSION_GROWTH = 6
+
+
+def conversion_cost(first, spheres):
+    """Sphere steps the budget counts for a conversion to a zone of `spheres`, the first
+    conversion's zone having `first`."""
+    return CONVERSION_STEPS * first + CONVERSION_GROWTH * spheres
 
 
 def over_budget(segments, n, full_spheres, spec):
     """Why growing at step n cannot pay (None if it can): the sphere steps run (each
-    conversion counted as CONVERSION_STEPS steps of the zone it made), plus the conversion
-    asked for and the rest of the run with at least the current zone's spheres, reach
-    zone_cost × the full model's. segments: (spheres, steps) of each zone so far."""
+    conversion counted by conversion_cost), plus the conversion asked for and the rest of the
+    run with at least the current zone's spheres, reach zone_cost × the full model's.
+    segments: (spheres, steps) of each zone so far."""
     full = full_spheres * spec.steps
+    current = segments[-1][0]
+    first = segments[1][0] if len(segments) > 1 else current
     spent = sum(spheres * steps for spheres, steps in segments) + \
-        CONVERSION_STEPS * sum(spheres for spheres, _ in segments[1:])
-    rest = segments[-1][0] * (CONVERSION_STEPS + spec.steps - n)
+        sum(conversion_cost(first, spheres) for spheres, _ in segments[1:])
+    rest = conversion_cost(first, current) + current * (spec.steps - n)
     if not spec.zone_cost or spent + rest < spec.zone_cost * full:
         return None
-    return (f"{spent:.4g} sphere steps run (conversions counted as {CONVERSION_STEPS} steps "
-            f"each) and at least {rest:.4g} to come reach zone.cost = {spec.zone_cost:g} × "
+    return (f"{spent:.4g} sphere steps run (each conversion counted as {CONVERSION_STEPS} "
+            f"steps of the first grown zone and {CONVERSION_GROWTH} of its own) and at least "
+            f"{rest:.4g} to come reach zone.cost = {spec.zone_cost:g} × "
             f"the full model's {full:.4g}")
