@@ -95,61 +95,6 @@ def test_an_fe_that_damages_trips_on_its_damage_not_its_stress():
     assert np.array_equal(e.value.cells, ~zone)
 
 
-def damaging_block(zone, field, grid):
-    """StretchedBlock on the damage law's FE, its damage updated every step, with the zone's
-    one-layer bridging band."""
-    from fenicsx_side.damage_law import ConcreteDamage
-    from fenicsx_side.damaged import DamageModel
-    from orchestrator.coupling.bridging import Bridging
-    law = ConcreteDamage(E, NU, FT, 30e6, 100.0, 30e3)
-    m = StretchedBlock(zone, field)
-    removed = np.repeat(zone[:, :, None], N[2], axis=2)
-    m.fe = DamageModel(box_mesh_without_cells(P0, P1, N, removed), law, RHO)
-    m.bridging = Bridging(grid.zone(zone), 1, 0.2)
-    step = m.step
-
-    def damaging_step():
-        step()
-        m.fe.update_damage()
-    m.step = damaging_step
-    return m, law
-
-
-def test_fe_damage_trips_in_the_band_only_when_asked():
-    """The zone is cell (0, 0); its one-layer band the cells (1, 0), (0, 1), (1, 1). Uniaxial
-    stretch damages every cell alike: with damage_at "band" the same step trips as "anywhere",
-    but only the band's three cells are flagged. u_x = ε max(x − 0.8, 0) damages only the
-    cells beyond x = 0.8, far from the band: "anywhere" trips there, "band" never does."""
-    grid = CellGrid(P0, P1, N)
-    zone = np.zeros(grid.shape, bool)
-    zone[0, 0] = True
-    band = np.zeros(grid.shape, bool)
-    band[:2, :2] = True
-    band &= ~zone
-    trips = {}
-    for where in ("anywhere", "band"):
-        m, law = damaging_block(zone, uniaxial(1e-4), grid)
-        Watch(m, grid, FT, TripLevels(damage_at=where, stress_every=2))
-        with pytest.raises(Tripped) as e:
-            steps(m, 0)
-        trips[where] = e.value
-    assert trips["band"].step == trips["anywhere"].step
-    assert np.array_equal(trips["anywhere"].cells, ~zone)
-    assert np.array_equal(trips["band"].cells, band)
-    assert "in 3 band cells" in trips["band"].indicator
-    kink = lambda x: np.column_stack([2e-3 * np.maximum(x[:, 0] - 0.8, 0), 0 * x[:, :2]])
-    m, _ = damaging_block(zone, kink, grid)
-    Watch(m, grid, FT, TripLevels(damage_at="anywhere", stress_every=2))
-    with pytest.raises(Tripped) as e:
-        steps(m, 0)
-    far = np.zeros(grid.shape, bool)
-    far[4:] = True
-    assert np.array_equal(e.value.cells, far)
-    m, _ = damaging_block(zone, kink, grid)
-    watch = Watch(m, grid, FT, TripLevels(damage_at="band", stress_every=2))
-    assert steps(m, 0) == {"attempt": 0} and watch.peak_damage >= 0.8
-
-
 def test_zone_grows_over_the_flagged_cells_and_margin_then_runs_clean():
     """u_x = ε max(x − 0.8, 0): only the cells beyond x = 0.8 (i = 4, 5) carry stress,
     σ1 = (λ + 2μ) ε. The first attempt trips there; the zone grows by those cells and one

@@ -9,7 +9,7 @@ from orchestrator.casefile import (boolean, check_spec, choice, integer, non_neg
                                    safety_range, spec_key as key, step_count)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.run.autozone import (DAMAGE_AT, TripLevels, ahead_level, damage_level, omega_level,
+from orchestrator.run.autozone import (TripLevels, ahead_level, damage_level, omega_level,
                                        stress_level)
 from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY, concrete_set
 
@@ -59,11 +59,6 @@ class SlabSpec:
                              help="auto, grow, with fe.material 'damage': an FE cell with damage >= "
                                   "this trips instead of its stress (the concrete cracked "
                                   "through there); also the post-run check's level")
-    trip_damage_at: str = key(TripLevels.damage_at, choice(*DAMAGE_AT), section="zone",
-                              name="damage_at",
-                              help="auto, grow, with fe.material 'damage': where FE damage trips: "
-                                   "'anywhere', or only in the bridging band's cells ('band': "
-                                   "the FE's law carries cracks elsewhere)")
     stress_every: int = key(TripLevels.stress_every, integer, positive, section="zone",
                             help="auto, grow: steps between FE stress checks")
     links_every: int = key(TripLevels.links_every, integer, positive, section="zone",

@@ -58,8 +58,8 @@ def limit_zone(spec):
 
 
 def levels(spec):
-    return TripLevels(spec.trip_stress, spec.trip_omega, spec.trip_damage, spec.trip_damage_at,
-                      spec.stress_every, spec.links_every, spec.zone_margin, spec.zone_ahead)
+    return TripLevels(spec.trip_stress, spec.trip_omega, spec.trip_damage, spec.stress_every,
+                      spec.links_every, spec.zone_margin, spec.zone_ahead)
 
 
 def check(spec):

@@ -33,10 +33,6 @@ def ahead_level(v):
     return None if 0 < v <= 1 else "in (0, 1] (× the trip levels)"
 
 
-# where FE damage trips (TripLevels.damage_at)
-DAMAGE_AT = ("anywhere", "band")
-
-
 @dataclass(frozen=True)
 class TripLevels:
     """When a coupled run stops to grow its DE zone (docs/auto-zone.md). The defaults are the
@@ -50,9 +46,6 @@ class TripLevels:
       ≥ damage. Default 0.8: the cell is nearly cracked through, and concrete that breaks
       into pieces is what only the spheres can follow (at 0.9 the zone ended clean at 40 m/s
       and outside the scatter);
-    - damage_at: where FE damage trips: "anywhere" in the FE, or only in the bridging band's
-      cells ("band": elsewhere the FE's law carries the cracks, and what the coupling cannot
-      carry is a band that is no longer a continuum);
     - omega: a link of a bridging sphere with damage ω ≥ omega (a broken link counts as 1).
       Default 1, a broken link: at 0.1 or 0.5 the band's partly damaged links flooded the
       zone to its limit at 10 m/s (with the damaging FE);
@@ -64,7 +57,6 @@ class TripLevels:
     stress: float = 2.0
     omega: float = 1.0
     damage: float = 0.8
-    damage_at: str = "anywhere"
     stress_every: int = 10
     links_every: int = 100
     margin: int = 1
@@ -80,9 +72,6 @@ class TripLevels:
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-        if self.damage_at not in DAMAGE_AT:
-            raise ValueError(f"damage_at must be one of {', '.join(DAMAGE_AT)}, "
-                             f"got {self.damage_at!r}")
         if ahead_level(self.ahead):
             raise ValueError(f"ahead must be {ahead_level(self.ahead)}, got {self.ahead!r}")
 
@@ -121,9 +110,6 @@ class Watch:
         self.limit = levels.stress * tensile_strength
         fe = model.fe
         self.fe_centres = fe.nodes[fe.cell_nodes].mean(axis=1) if fe is not None else None
-        # the FE cells whose damage can trip (levels.damage_at)
-        self.damage_cells = (None if fe is None or levels.damage_at == "anywhere"
-                             else model.bridging.contains(self.fe_centres))
         self.band = model.bridge_index
         self.band_pos = model.spheres.ref_pos[self.band]
         self.steps, self.seconds = 0, 0.0
@@ -146,10 +132,7 @@ class Watch:
             if fe.carries_damage:
                 d = fe.damage
                 self.peak_damage = max(self.peak_damage, float(d.max(initial=0.0)))
-                where = "cells"
-                if self.damage_cells is not None:
-                    d, where = np.where(self.damage_cells, d, 0.0), "band cells"
-                _trip(n, d, lv.damage, f"FE damage {d.max():.3g} ≥ {lv.damage:g} in {{}} {where}",
+                _trip(n, d, lv.damage, f"FE damage {d.max():.3g} ≥ {lv.damage:g} in {{}} cells",
                       self.fe_centres, self.grid, lv.ahead)
             else:
                 s1 = fe.stress().max_principal
