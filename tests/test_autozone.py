@@ -179,7 +179,7 @@ def test_slab_budget_counts_sphere_steps_spent_and_one_whole_run_of_the_last_zon
     from cases.slab import SlabSpec
     from cases.slab.search import over_budget, search_cost
     attempts = [{"spheres": 4000, "steps_run": 500}, {"spheres": 5000, "steps_run": 200}]
-    spec = SlabSpec(steps=1000)
+    spec = SlabSpec(steps=1000, zone_cost=1.0)
     assert search_cost(attempts, 1000) == (3_000_000, 5_000_000)
     assert over_budget(attempts, 10_000, spec) is None
     assert over_budget(attempts, 10_000, SlabSpec(steps=1000, zone_cost=0.0)) is None

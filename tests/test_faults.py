@@ -340,10 +340,10 @@ def test_a_field_added_since_the_checkpoint_is_the_same_input_at_its_default():
     del saved["zone_cost"]
     assert differences(saved, spec_inputs(SlabSpec(), "coupled")) == []
     assert differences(saved, spec_inputs(SlabSpec(zone_cost=2.0), "coupled")) == [
-        "zone_cost: 1.0 at the checkpoint, 2.0 now"]
+        "zone_cost: 0.5 at the checkpoint, 2.0 now"]
     del saved["seed"]                      # a plain dict of inputs has no defaults to fill in
     assert differences(saved, dict(spec_inputs(SlabSpec(), "coupled"))) == [
-        "seed: absent at the checkpoint, 1 now", "zone_cost: absent at the checkpoint, 1.0 now"]
+        "seed: absent at the checkpoint, 1 now", "zone_cost: absent at the checkpoint, 0.5 now"]
 
 @pytest.mark.parametrize("name", ["state.npz", "yade/cpm_history.npz", "meta.json"])
 def test_a_corrupt_checkpoint_file_is_named(stopped, capsys, name):

@@ -69,12 +69,13 @@ class SlabSpec:
                             help="auto, grow: when an indicator trips, the cells past this × "
                                  "its level are flagged too (fewer, larger growths); 1: only "
                                  "those that tripped")
-    zone_cost: float = key(1.0, number, non_negative, section="zone", name="cost",
+    zone_cost: float = key(0.5, number, non_negative, section="zone", name="cost",
                            help="auto: the search stops when the spheres × steps it has run, "
                                 "plus one whole run of its last zone, reach this × the full "
-                                "model's (it can no longer be cheaper than the full run); "
-                                "grow: when those it has run, plus the rest of the run in its "
-                                "zone, do; 0: no such limit")
+                                "model's; grow: when those it has run, plus the rest of the "
+                                "run in its zone, do (0.5: coupling pays when it at least "
+                                "halves the full model's work; docs/auto-zone.md); 0: no such "
+                                "limit")
     grow_shear: bool = key(False, boolean, section="zone", name="shear",
                            help="grow: the links of converted cells take the FE's shear strain "
                                 "(affine) too, not only its normal strain: that adds 2-3 × the "

@@ -8,13 +8,13 @@ def post_run_checks(fe_peak, bridge_damage, tensile_strength, compressive_streng
     its largest cell stresses over the run, orchestrator.run.outputs.fe_peak; None without
     FE), the bridging spheres stay undamaged (else the DE zone is too small). Where the FE
     carries damage (fe_damage: orchestrator.run.outputs.fe_damage), its stresses are the law's
-    and the first check is that no cell cracked through: damage below `damage_level`."""
+    and the first check is that no cell went as far into its softening as the zone's trip
+    level: damage below `damage_level`."""
     warnings = []
     if fe_damage is not None:
         if fe_damage["max"] >= damage_level:
-            warnings.append(f"FE damage {fe_damage['max']:.3f} reaches {damage_level:g} (a "
-                            f"crack through the cell) in the FE part: the DE zone may be too "
-                            f"small")
+            warnings.append(f"FE damage {fe_damage['max']:.3f} reaches {damage_level:g} (the "
+                            f"zone's trip level) in the FE part: the DE zone may be too small")
     elif fe_peak is not None:
         s1, vm = fe_peak["max_principal_Pa"], fe_peak["von_mises_Pa"]
         if s1 > tensile_strength:
