@@ -57,8 +57,9 @@ class SlabSpec:
                                  "coupling assumes an elastic band; 1: a broken link)")
     trip_damage: float = key(TripLevels.damage, number, damage_level, section="zone",
                              help="auto, grow, with fe.material 'damage': an FE cell with damage >= "
-                                  "this trips instead of its stress (the concrete cracked "
-                                  "through there); also the post-run check's level")
+                                  "this trips instead of its stress (0.9: 0.62-0.75 ft left in "
+                                  "tension, docs/auto-zone.md); also the post-run check's "
+                                  "level")
     stress_every: int = key(TripLevels.stress_every, integer, positive, section="zone",
                             help="auto, grow: steps between FE stress checks")
     links_every: int = key(TripLevels.links_every, integer, positive, section="zone",
