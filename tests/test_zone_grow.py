@@ -136,6 +136,8 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     new = block.current
     record = block.conversions[-1]
     assert record["zone_cells"] == 5 ** 3 and len(record["cells"]) == 5 ** 3 - 1
+    # what tripped: the 98 cells two layers out, none of them in the one-layer band
+    assert len(record["tripped_cells"]) == 5 ** 3 - 3 ** 3 and record["tripped_in_band"] == 0
     assert record["spheres_added"] == 14 ** 3 - 6 ** 3
     assert record["energy_before"] == pytest.approx(before, rel=1e-12)
     energies = [record["energy_after"]]
