@@ -11,15 +11,20 @@ from orchestrator.run.autozone import TripLevels, Tripped, Watch, find_zone
 
 E, NU, RHO, FT = 30e9, 0.2, 2400.0, 3e6
 P0, P1, N = (0.0, 0.0, 0.0), (1.2, 0.8, 0.2), (6, 4, 1)
+BAND = np.zeros((6, 4), bool)     # zone (0, 0) and its one-layer band
+BAND[:2, :2] = True
 
 
 class StretchedBlock:
-    """A model of the run loop's kind without spheres: an FE block (the grid less the zone)
-    whose step n imposes the displacement n · field(nodes)."""
+    """A model of the run loop's kind without spheres: an FE block (the grid less the zone,
+    with the zone's one-layer bridging band) whose step n imposes the displacement
+    n · field(nodes)."""
 
     def __init__(self, zone, field):
+        from orchestrator.coupling.bridging import Bridging
         removed = np.repeat(zone[:, :, None], N[2], axis=2)
         self.fe = ElasticModel(box_mesh_without_cells(P0, P1, N, removed), E, NU, RHO)
+        self.bridging = Bridging(CellGrid(P0, P1, N).zone(zone), 1, 0.2) if zone.any() else None
         self.bridge_index = np.empty(0, int)
         self.spheres = type("NoSpheres", (), {"ref_pos": np.empty((0, 3))})()
         self.seconds = {"yade": 0.0}
@@ -47,7 +52,8 @@ def steps(model, k, n=30):
 
 def test_uniaxial_stretch_trips_at_the_first_check_past_ft():
     """σ1 = E · n · δ: with δ = 0.7e-5 and a check every 3 steps, σ1 = 2.52 MPa at step 12 and
-    3.15 MPa at step 15 (ft = 3 MPa): the trip is at step 15 and flags every FE cell."""
+    3.15 MPa at step 15 (ft = 3 MPa): the trip is at step 15 and flags every FE cell outside
+    the band (the zone is cell (0, 0), its band (1, 0), (0, 1), (1, 1): 20 of the 23)."""
     grid = CellGrid(P0, P1, N)
     zone = np.zeros(grid.shape, bool)
     zone[0, 0] = True
@@ -57,8 +63,8 @@ def test_uniaxial_stretch_trips_at_the_first_check_past_ft():
         steps(m, 0)
     assert e.value.step == 15 and watch.steps == 15
     assert watch.peak_stress == pytest.approx(E * 15 * 0.7e-5, rel=1e-12)
-    assert "σ1 3.15 MPa ≥ 1 × ft in 23 cells" in e.value.indicator
-    assert np.array_equal(e.value.cells, ~zone)
+    assert "σ1 3.15 MPa ≥ 1 × ft in 20 cells" in e.value.indicator
+    assert np.array_equal(e.value.cells, ~BAND & ~zone)
     # the same stretch below the level never trips
     m = StretchedBlock(zone, uniaxial(0.6e-5 / 30))
     Watch(m, grid, FT, TripLevels(stress=1.0, stress_every=3))
@@ -68,7 +74,8 @@ def test_uniaxial_stretch_trips_at_the_first_check_past_ft():
 def test_an_fe_that_damages_trips_on_its_damage_not_its_stress():
     """The same stretch on an FE with the damage law (ft 3 MPa, box cells of 0.2 m): D(n δ) of
     the law's curve; with δ = 1e-4 and a check every 2 steps the first check with D ≥ 0.9 is
-    found from the law itself, and every cell is flagged; stresses past ft do not trip."""
+    found from the law itself, and every cell outside the band is flagged; stresses past ft do
+    not trip."""
     from fenicsx_side.damage_law import ConcreteDamage
     from fenicsx_side.damaged import DamageModel
     law = ConcreteDamage(E, NU, FT, 30e6, 100.0, 30e3)
@@ -91,8 +98,26 @@ def test_an_fe_that_damages_trips_on_its_damage_not_its_stress():
         steps(m, 0)
     assert e.value.step == expected
     assert watch.peak_damage == pytest.approx(law.damage(expected * 1e-4, ef), rel=1e-9)
-    assert "FE damage" in e.value.indicator and "in 23 cells" in e.value.indicator
-    assert np.array_equal(e.value.cells, ~zone)
+    assert "FE damage" in e.value.indicator and "in 20 cells" in e.value.indicator
+    assert np.array_equal(e.value.cells, ~BAND & ~zone)
+
+
+def test_the_band_cells_stress_does_not_trip():
+    """u_x = ε min(x, 0.4), the zone cell (0, 0): the cells with x < 0.4 (i = 0, 1) carry the
+    same stress σ1 = (λ + 2μ) ε n; at the first step past ft only those outside the band trip:
+    (0, 2), (0, 3), (1, 2), (1, 3), not the band's (1, 0), (0, 1), (1, 1)."""
+    grid = CellGrid(P0, P1, N)
+    zone = np.zeros(grid.shape, bool)
+    zone[0, 0] = True
+    m = StretchedBlock(zone, lambda x: np.column_stack([1.1e-5 * np.minimum(x[:, 0], 0.4),
+                                                        0 * x[:, :2]]))
+    Watch(m, grid, FT, TripLevels(stress=1.0, stress_every=1))
+    with pytest.raises(Tripped) as e:
+        steps(m, 0)
+    lam_2mu = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
+    assert e.value.step == int(np.ceil(FT / (lam_2mu * 1.1e-5)))
+    assert sorted(map(tuple, np.argwhere(e.value.cells).tolist())) == [(0, 2), (0, 3), (1, 2),
+                                                                       (1, 3)]
 
 
 def test_zone_grows_over_the_flagged_cells_and_margin_then_runs_clean():

@@ -49,17 +49,17 @@ class SlabSpec:
                         help="auto, grow: when the zone would pass its limit, stop ('none') or run "
                              "the full model ('full')")
     trip_stress: float = key(TripLevels.stress, number, stress_level, section="zone",
-                             help="auto, grow, with fe.material 'elastic': an FE cell with σ1 >= "
-                                  "this × ft trips (the FE cannot crack; 1 is the paper's check, "
-                                  "which the post-run check keeps)")
+                             help="auto, grow, with fe.material 'elastic': an FE cell outside "
+                                  "the band with σ1 >= this × ft trips (the FE cannot crack; 1 "
+                                  "is the paper's check, which the post-run check keeps)")
     trip_omega: float = key(TripLevels.omega, number, omega_level, section="zone",
                             help="auto, grow: a bridging link with damage >= this trips (the "
                                  "coupling assumes an elastic band; 1: a broken link)")
     trip_damage: float = key(TripLevels.damage, number, damage_level, section="zone",
-                             help="auto, grow, with fe.material 'damage': an FE cell with damage >= "
-                                  "this trips instead of its stress (0.9: 0.62-0.75 ft left in "
-                                  "tension, docs/auto-zone.md); also the post-run check's "
-                                  "level")
+                             help="auto, grow, with fe.material 'damage': an FE cell outside "
+                                  "the band with damage >= this trips instead of its stress "
+                                  "(0.9: 0.62-0.75 ft left in tension, docs/auto-zone.md); also "
+                                  "the post-run check's level")
     stress_every: int = key(TripLevels.stress_every, integer, positive, section="zone",
                             help="auto, grow: steps between FE stress checks")
     links_every: int = key(TripLevels.links_every, integer, positive, section="zone",

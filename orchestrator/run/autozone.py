@@ -40,14 +40,14 @@ class TripLevels:
     where the full ensembles of the same impacts (small and medium scale, 10, 20, 40 m/s,
     seeds 1-3) had it within their scatter (docs/auto-zone.md, "Trip levels against the
     ensembles"):
-    - stress: largest principal stress of an FE cell ≥ stress × ft, where the FE is
-      linear-elastic and cannot crack. Default 2: at 1 (the paper's check) the FE passes ft in
+    - stress: largest principal stress of an FE cell outside the band (Watch) ≥ stress × ft,
+      where the FE is linear-elastic and cannot crack. Default 2: at 1 (the paper's check) the FE passes ft in
       a few cells at 10 m/s, where the fixed start zone is within the scatter;
-    - damage, where the FE carries damage instead (fenicsx_side.damaged): an FE cell's damage
-      ≥ damage. Default 0.9: the cell is well into its softening (its strength down to
+    - damage, where the FE carries damage instead (fenicsx_side.damaged): the damage of an FE
+      cell outside the band ≥ damage. Default 0.9: the cell is well into its softening (its strength down to
       0.62-0.75 ft in uniaxial tension, the crack-band law with the scales' Gf). At 0.8 the
       zone grew past the budget or its limit at medium scale, 20 m/s, where zones that stay
-      smaller are within the scatter; at 0.9 without the budget it ended clean at 40 m/s,
+      smaller are within the scatter; at 0.9 with the budget at 1 it ended clean at 40 m/s,
       small scale, and outside;
     - omega: a link of a bridging sphere with damage ω ≥ omega (a broken link counts as 1).
       Default 1, a broken link: at 0.1 or 0.5 the band's partly damaged links flooded the
@@ -106,13 +106,18 @@ class Tripped(Exception):
 
 class Watch:
     """The indicators of one coupled model, read after every `stress_every`-th and
-    `links_every`-th step of model.step (which it wraps); they only read the state."""
+    `links_every`-th step of model.step (which it wraps); they only read the state. The FE's
+    stress or damage is read in the cells outside the bridging band: in the band the FE's
+    strain is the spheres' (the coupling holds them together), whose hot spots at the
+    packing's scale are no continuum's, and the band's own check is its links."""
 
     def __init__(self, model, grid, tensile_strength, levels):
         self.model, self.grid, self.levels = model, grid, levels
         self.limit = levels.stress * tensile_strength
         fe = model.fe
         self.fe_centres = fe.nodes[fe.cell_nodes].mean(axis=1) if fe is not None else None
+        self.fe_read = (None if fe is None or model.bridging is None
+                        else ~model.bridging.contains(self.fe_centres))
         self.band = model.bridge_index
         self.band_pos = model.spheres.ref_pos[self.band]
         self.steps, self.seconds = 0, 0.0
@@ -133,12 +138,12 @@ class Watch:
         lv, fe = self.levels, self.model.fe
         if self.fe_centres is not None and n % lv.stress_every == 0:
             if fe.carries_damage:
-                d = fe.damage
+                d = self._read(fe.damage)
                 self.peak_damage = max(self.peak_damage, float(d.max(initial=0.0)))
                 _trip(n, d, lv.damage, f"FE damage {d.max():.3g} ≥ {lv.damage:g} in {{}} cells",
                       self.fe_centres, self.grid, lv.ahead)
             else:
-                s1 = fe.stress().max_principal
+                s1 = self._read(fe.stress().max_principal)
                 self.peak_stress = max(self.peak_stress, float(s1.max(initial=0.0)))
                 _trip(n, s1, self.limit, f"FE σ1 {s1.max() / 1e6:.3g} MPa ≥ {lv.stress:g} × ft "
                                          f"in {{}} cells", self.fe_centres, self.grid, lv.ahead)
@@ -147,6 +152,11 @@ class Watch:
             self.peak_omega = max(self.peak_omega, float(worst.max(initial=0.0)))
             _trip(n, worst, lv.omega, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} at {{}} "
                                       f"spheres", self.band_pos, self.grid, lv.ahead)
+
+
+    def _read(self, values):
+        """The cells' values, 0 in the band's cells."""
+        return values if self.fe_read is None else np.where(self.fe_read, values, 0.0)
 
 
 def _trip(n, values, level, text, positions, grid, ahead=1.0):
