@@ -6,10 +6,10 @@ with the same zone, damage and sensors as the run that was not stopped.
 Bit for bit on one thread until a contact that did not exist at the checkpoint forms (YADE's
 `O.save` keeps only the real interactions; after the load the collider makes its candidate
 pairs again at the end of the interaction container, so a new contact's forces are summed in
-another order: docs/case-files.md). In this case one forms 3 steps after the resume (bodies
-489 and 587, measured on 2026-12-05): from then on the two runs differ by round-off (sphere
-states 1e-13 in their velocities by step 240, positions 2.8e-17 m at step 260, the energy at
-the conversion of step 250 in its 16th digit; sensors.csv, written to 10 digits, identical).
+another order: docs/case-files.md). In the case as it was on 2026-12-05 (260 steps, the
+FE read in the band too) one formed 3 steps after the resume: from then on the two runs
+differed by round-off (sphere states 1e-13 in their velocities by step 240, positions
+2.8e-17 m at step 260; sensors.csv, written to 10 digits, identical).
 The test asserts exact equality where round-off cannot reach (the conversions' steps, cells
 and counts, the zone, the broken links, every frame up to the checkpoint) and bounds the rest
 (sensors within 1e-9 of their peaks, energies within 1e-12).
@@ -29,13 +29,13 @@ from cli.main import STOPPED, main
 from orchestrator.run.outputs import read_sensors
 from yade_side.output import read_series
 
-# the small slab at 40 m/s from the 0.5 m box: the FE cracks through (D >= 0.9) at once, and
-# the zone grows at steps 170, 180, 200 and 250 (measured on 2026-12-05; the test asserts
-# only that some come before the checkpoint of STOP_AT and some after); the checkpoint of
-# step 200 is taken after the conversion of that step
+# the small slab at 40 m/s from the 0.5 m box: band links break at once, and the zone grows at
+# steps 200 and 300 (measured on 2026-12-06; the test asserts only that some come before the
+# checkpoint of STOP_AT and some after); the checkpoint of step 200 is taken after the
+# conversion of that step
 GROW = ["slab", "--model", "coupled", "--scale", "small", "--impactor-speed", "40",
         "--zone", "grow", "--zone-start", "0.5", "--layers", "1", "--fe-material", "damage",
-        "--links-every", "100", "--trip-omega", "1", "--trip-damage", "0.9", "--steps", "260",
+        "--links-every", "100", "--trip-omega", "1", "--trip-damage", "0.9", "--steps", "310",
         "--checkpoint-every", "100", "--output-every", "50", "--threads", "1", "--quiet"]
 STOP_AT = 200
 
@@ -70,8 +70,8 @@ def same_bits(a, b):
 
 @pytest.mark.parametrize("step", [STOP_AT, 100])
 def test_a_grown_run_resumed_ends_as_the_run_not_stopped(runs, tmp_path, step):
-    """Resumed from the checkpoint of step 200, taken after three conversions (the last at
-    that very step), as stopped by SIGTERM; or from the one of step 100, before any, as a run
+    """Resumed from the checkpoint of step 200, taken after the first conversion (at that very
+    step), as stopped by SIGTERM; or from the one of step 100, before any, as a run
     killed at step 200 would be (its series and FE files hold frames past the checkpoint)."""
     reference, stopped, checkpoint_100 = runs
     out = tmp_path / "run"
