@@ -235,8 +235,9 @@ def test_a_growing_zone_counts_its_conversions_in_its_budget():
     segments = [(2000, 100), (3000, 50), (9000, 20)]
     spent = 2000 * 100 + 3000 * 50 + 9000 * 20 + 198_000 + (180_000 + 54_000)
     rest = 180_000 + 54_000 + 9000 * 830
-    assert over_budget(segments, 170, 10_000, SlabSpec(steps=1000, zone_cost=(spent + rest + 1) / 1e7)) is None
-    assert over_budget(segments, 170, 10_000, SlabSpec(steps=1000, zone_cost=(spent + rest) / 1e7))
+    above, at = ((spent + rest + 1) / 1e7, (spent + rest) / 1e7)
+    assert over_budget(segments, 170, 10_000, SlabSpec(steps=1000, zone_cost=above)) is None
+    assert over_budget(segments, 170, 10_000, SlabSpec(steps=1000, zone_cost=at))
 
 
 @pytest.mark.parametrize("kwargs, message", [

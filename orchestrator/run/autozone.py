@@ -41,14 +41,15 @@ class TripLevels:
     seeds 1-3) had it within their scatter (docs/auto-zone.md, "Trip levels against the
     ensembles"):
     - stress: largest principal stress of an FE cell outside the band (Watch) ≥ stress × ft,
-      where the FE is linear-elastic and cannot crack. Default 2: at 1 (the paper's check) the FE passes ft in
-      a few cells at 10 m/s, where the fixed start zone is within the scatter;
+      where the FE is linear-elastic and cannot crack. Default 2: at 1 (the paper's check)
+      the FE passes ft in a few cells at 10 m/s, where the fixed start zone is within the
+      scatter;
     - damage, where the FE carries damage instead (fenicsx_side.damaged): the damage of an FE
-      cell outside the band ≥ damage. Default 0.9: the cell is well into its softening (its strength down to
-      0.62-0.75 ft in uniaxial tension, the crack-band law with the scales' Gf). At 0.8 the
-      zone grew past the budget or its limit at medium scale, 20 m/s, where zones that stay
-      smaller are within the scatter; at 0.9 with the budget at 1 it ended clean at 40 m/s,
-      small scale, and outside;
+      cell outside the band ≥ damage. Default 0.9: the cell is well into its softening (its
+      strength down to 0.62-0.75 ft in uniaxial tension, the crack-band law with the scales'
+      Gf). At 0.8 the zone grew past the budget or its limit at medium scale, 20 m/s, where
+      zones that stay smaller are within the scatter; at 0.9 with the budget at 1 it ended
+      clean at 40 m/s, small scale, and outside;
     - omega: a link of a bridging sphere with damage ω ≥ omega (a broken link counts as 1).
       Default 1, a broken link: at 0.1 or 0.5 the band's partly damaged links flooded the
       zone to its limit at 10 m/s (with the damaging FE);
@@ -152,7 +153,6 @@ class Watch:
             self.peak_omega = max(self.peak_omega, float(worst.max(initial=0.0)))
             _trip(n, worst, lv.omega, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} at {{}} "
                                       f"spheres", self.band_pos, self.grid, lv.ahead)
-
 
     def _read(self, values):
         """The cells' values, 0 in the band's cells."""

@@ -311,12 +311,12 @@ class GrowingModel:
         self.watch.steps = n
         self.current, self.zone = new, grown
         self.zones.append(grown.copy())
+        band = grid.dilate(self.zones[-2], old.bridging.layers) & ~self.zones[-2]
         self.conversions.append({
             "step": n, "indicator": tripped.indicator,
             "cells": np.argwhere(grown & ~self.zones[-2]).tolist(), "zone_cells": int(grown.sum()),
             "tripped_cells": np.argwhere(tripped.cells).tolist(),
-            "tripped_in_band": int(np.count_nonzero(tripped.cells & grid.dilate(self.zones[-2],
-                                                                                  old.bridging.layers))),
+            "tripped_in_band": int(np.count_nonzero(tripped.cells & band)),
             "spheres_added": carried["bodies_added"], "spheres": int(new.sphere_count()),
             "energy_before": energy_before, "energy_after": energy_after,
             "energy_parts_before": before, "energy_parts_after": after,
