@@ -25,7 +25,7 @@ PLANS = {
 }
 IMPACT_AFTER_S = 5e-4     # the second window: 0.5 ms into the run, the slab cracking under the impactor
 THREADS = (1, 2)
-CONVERSION_STEPS = 100    # steps of the grown model timed after a conversion
+TIMED_AFTER_CONVERSION = 100    # steps of the grown model timed after a conversion
 TIMEOUT_S = 1800
 # `--quick` fails when the medium coupled step is slower than bench/results.json's by more
 REGRESSION = 1.15
@@ -61,7 +61,7 @@ def measure(plan):
             "coupled_damage": worker(dict(base, model="coupled",
                                           spec={"scale": scale, "fe_material": "damage"})),
             "conversion": worker(dict(base, model="coupled", conversion=True,
-                                      steps=min(steps, CONVERSION_STEPS))),
+                                      steps=min(steps, TIMED_AFTER_CONVERSION))),
         }
     # OpenMP threads: the full model (YADE alone) at the largest scale below paper
     below_paper = [s for s in plan if s != "paper"]

@@ -26,6 +26,7 @@ class StretchedBlock:
         self.fe = ElasticModel(box_mesh_without_cells(P0, P1, N, removed), E, NU, RHO)
         self.bridging = Bridging(CellGrid(P0, P1, N).zone(zone), 1, 0.2) if zone.any() else None
         self.bridge_index = np.empty(0, int)
+        self.parts = type("Parts", (), {"inside_step": False})()
         self.spheres = type("NoSpheres", (), {"ref_pos": np.empty((0, 3))})()
         self.seconds = {"yade": 0.0}
         self.field = field(self.fe.nodes).ravel()
@@ -118,6 +119,24 @@ def test_the_band_cells_stress_does_not_trip():
     assert e.value.step == int(np.ceil(FT / (lam_2mu * 1.1e-5)))
     assert sorted(map(tuple, np.argwhere(e.value.cells).tolist())) == [(0, 2), (0, 3), (1, 2),
                                                                        (1, 3)]
+
+
+def test_a_trip_at_the_runs_last_step_converts_nothing():
+    """The stretch of test_uniaxial_stretch_trips_at_the_first_check_past_ft trips at step 15:
+    a zone grown during a run of 15 steps does not convert there (no step follows), one of
+    18 steps does."""
+    from orchestrator.run.grow import GrowingModel
+    grid = CellGrid(P0, P1, N)
+    zone = np.zeros(grid.shape, bool)
+    zone[0, 0] = True
+    for last, converted in ((15, []), (18, [15])):
+        m = GrowingModel(lambda mask, grown_from=None, earlier=(): StretchedBlock(
+            mask, uniaxial(0.7e-5)), grid, zone, np.ones(grid.shape, bool), FT,
+            TripLevels(stress=1.0, stress_every=3), tol=1e-9, log=None, last_step=last)
+        asked = []
+        m.grow = lambda t: asked.append(t.step)
+        steps(m, 0, 15)
+        assert asked == converted
 
 
 def test_zone_grows_over_the_flagged_cells_and_margin_then_runs_clean():
@@ -304,7 +323,7 @@ def test_the_post_run_check_reads_the_runs_peak_stress_not_its_last():
     from orchestrator.run.restart import Record
     delta, dt = 1.4e-5, 1e-6
     m = StretchedBlock(np.zeros((6, 4), bool), uniaxial(1.0))
-    recorder = SimpleNamespace(m=m, rec=Record())
+    recorder = SimpleNamespace(m=m, rec=Record(), fe_read=None)    # no band: every cell
     for n in range(1, 19):
         m.fe.u = min(n, 20 - n) * m.field * delta
         Recorder._fe_peak(recorder, n * dt)
@@ -317,6 +336,41 @@ def test_the_post_run_check_reads_the_runs_peak_stress_not_its_last():
         "FE principal stress 4.20 MPa (at t = 0.01 ms) exceeds the tensile strength 3.00 MPa: "
         "the DE zone may be too small"]
     assert post_run_checks(peak, np.zeros(0), 5e6, 40e6) == []
+
+
+def test_the_post_run_check_reads_the_cells_outside_the_band():
+    """u_x = ε min(x, 0.4) (0.8 − y) / 0.8 around the zone cell (0, 0): the stress falls with
+    y, so the largest σ1 is in a band cell; the recorder's peak is the largest of the cells
+    outside the band (the in-plane cells of BAND less the zone's, counted from the cells'
+    centres here), as the zone's trip reads them."""
+    from types import SimpleNamespace
+    from orchestrator.run.checks import fe_cells_checked
+    from orchestrator.run.record import Recorder
+    from orchestrator.run.restart import Record
+    zone = np.zeros((6, 4), bool)
+    zone[0, 0] = True
+    m = StretchedBlock(zone, lambda x: np.column_stack(
+        [1e-5 * np.minimum(x[:, 0], 0.4) * (0.8 - x[:, 1]) / 0.8, 0 * x[:, :2]]))
+    recorder = SimpleNamespace(m=m, rec=Record(), fe_read=fe_cells_checked(m))
+    m.step()
+    Recorder._fe_peak(recorder, 1e-6)
+    centres = m.fe.nodes[m.fe.cell_nodes].mean(axis=1)
+    i, j = (centres[:, 0] // 0.2).astype(int), (centres[:, 1] // 0.2).astype(int)
+    outside = ~BAND[i, j]
+    s1 = m.fe.stress().max_principal
+    assert np.count_nonzero(~outside) == 3 and s1[~outside].max() > s1[outside].max()
+    assert recorder.rec.fe_peak[0] == s1[outside].max()
+
+
+def test_the_post_run_damage_check_reads_the_cells_outside_the_band():
+    """A band cell past the trip level does not warn; a cell outside the band does."""
+    from orchestrator.run.checks import post_run_checks
+    assert post_run_checks(None, np.zeros(0), FT, 40e6, {"max": 0.99, "max_checked": 0.5},
+                           0.9) == []
+    assert post_run_checks(None, np.zeros(0), FT, 40e6, {"max": 0.99, "max_checked": 0.95},
+                           0.9) == ["FE damage 0.950 reaches 0.9 (the zone's trip level) in "
+                                    "the FE part outside the bridging band: the DE zone may "
+                                    "be too small"]
 
 
 def test_an_ensemble_member_whose_zone_search_ends_at_its_limit_is_named_as_such(tmp_path):

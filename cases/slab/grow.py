@@ -49,7 +49,7 @@ def growing_model(spec, resumed=None, log=print):
                          tol=1e-6 * spec.radius, log=log, shear=spec.grow_shear,
                          budget=lambda segments, n: over_budget(segments, n, full_spheres,
                                                                 spec),
-                         resumed=resumed)
+                         resumed=resumed, last_step=spec.steps)
     full_spheres = len(model.scene.packs.slab_radii) + len(model.impactor_ids)
     return model, full_spheres
 

@@ -282,9 +282,9 @@ def _method_lines(last_state):
             "full mean for an nRMS). The goal's line names such figures: they are no "
             "evidence for the coupled model.",
             "- Post-run checks: the paper's two a-posteriori checks, made at the end of each "
-            "run: the FE's peak stress over the run (`fe_peak_stress`, read at every sensor "
-            "sample) against the concrete's strengths, and the damaged bridging spheres, as "
-            "the run's `summary.json` warns."
+            "run: the FE's peak stress over the run in the cells outside the bridging band "
+            "(`fe_peak_stress`, read at every sensor sample) against the concrete's "
+            "strengths, and the damaged bridging spheres, as the run's `summary.json` warns."
             + (f" {old} of the {done} coupled runs here were written before the peak was "
                "recorded: their FE figure is the stress of their last state, which a peak "
                "passing earlier can exceed." if old else ""),

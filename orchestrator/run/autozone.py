@@ -13,6 +13,7 @@ from time import perf_counter
 
 import numpy as np
 
+from orchestrator.run.checks import fe_cells_checked
 from orchestrator.run.restart import Stopped
 
 
@@ -108,17 +109,15 @@ class Tripped(Exception):
 class Watch:
     """The indicators of one coupled model, read after every `stress_every`-th and
     `links_every`-th step of model.step (which it wraps); they only read the state. The FE's
-    stress or damage is read in the cells outside the bridging band: in the band the FE's
-    strain is the spheres' (the coupling holds them together), whose hot spots at the
-    packing's scale are no continuum's, and the band's own check is its links."""
+    stress or damage is read in the cells the post-run check reads, outside the bridging band
+    (orchestrator.run.checks.fe_cells_checked)."""
 
     def __init__(self, model, grid, tensile_strength, levels):
         self.model, self.grid, self.levels = model, grid, levels
         self.limit = levels.stress * tensile_strength
         fe = model.fe
         self.fe_centres = fe.nodes[fe.cell_nodes].mean(axis=1) if fe is not None else None
-        self.fe_read = (None if fe is None or model.bridging is None
-                        else ~model.bridging.contains(self.fe_centres))
+        self.fe_read = fe_cells_checked(model)
         self.band = model.bridge_index
         self.band_pos = model.spheres.ref_pos[self.band]
         self.steps, self.seconds = 0, 0.0

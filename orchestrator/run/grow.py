@@ -220,16 +220,18 @@ class GrowingModel:
     flagged cells and `levels.margin` more, inside `limit`; budget(segments, n) says why
     growing at step n cannot pay (None if it can; segments: (spheres, steps) of each zone
     run so far). Bodies, nodes and cells of two models match within `tol` (m); `shear`:
-    see carry. Listeners in `on_grow` are told (old, new, k) after the k-th conversion.
-    Reads of attributes go to the current model. Checkpoints: checkpoint_state() is what the
+    see carry; `last_step`: the run's last step, where a trip converts nothing (no step
+    follows; the post-run check reads the same cells and warns). Listeners in `on_grow` are
+    told (old, new, k) after the k-th conversion. Reads of attributes go to the current model. Checkpoints: checkpoint_state() is what the
     growth adds to the current model's state (orchestrator.run.restart); `resumed` (a
     ResumedGrowth read back from one) builds the model of its last zone and takes its growth."""
 
     def __init__(self, build, grid, zone, limit, tensile_strength, levels, tol, budget=None,
-                 log=print, shear=False, resumed=None):
+                 log=print, shear=False, resumed=None, last_step=None):
         t0 = perf_counter()
         self.__dict__.update(build=build, cell_grid=grid, limit=limit, ft=tensile_strength,
-                             levels=levels, tol=tol, budget=budget, log=log, shear=shear)
+                             levels=levels, tol=tol, budget=budget, log=log, shear=shear,
+                             last_step=last_step)
         self.zone = zone.copy()
         self.zones = [self.zone.copy()]
         if resumed is not None:         # a checkpoint's growth (checkpoint_state): its zone
@@ -259,7 +261,10 @@ class GrowingModel:
         try:
             self.current.step()
         except Tripped as t:
-            self.grow(t)
+            if t.step == self.last_step:
+                run_log.info("%s at the run's last step: nothing converted", t)
+            else:
+                self.grow(t)
 
     def _segment(self, n):
         """(spheres, steps) of the current zone's run up to step n."""

@@ -3,6 +3,7 @@ they are read back."""
 import numpy as np
 
 from common.files import save_figure, save_npz, write_csv, write_json
+from orchestrator.run.checks import fe_cells_checked
 from yade_side import yade_threads
 
 
@@ -42,17 +43,22 @@ def summary(model, rec, schedule, wall, seconds, warnings, info):
 
 
 def fe_peak(rec):
-    """The FE's largest cell stresses over the run's samples, with their times."""
+    """The FE's largest cell stresses over the run's samples, with their times, in the cells
+    the checks read (checks.fe_cells_checked: outside the bridging band)."""
     s1, t1, vm, t2 = rec.fe_peak
     return {"max_principal_Pa": s1, "max_principal_t_s": t1, "von_mises_Pa": vm,
             "von_mises_t_s": t2}
 
 
 def fe_damage(m):
-    """What the FE's damage law left: the largest cell damage, the cells damaged and broken
-    (orchestrator.builder.Model.fe_broken), Σ D V (bulk m³) and the energy dissipated."""
-    fe = m.fe
+    """What the FE's damage law left: the largest cell damage, in every cell and in those the
+    checks read (checks.fe_cells_checked: outside the bridging band), the cells damaged and
+    broken (orchestrator.builder.Model.fe_broken), Σ D V (bulk m³) and the energy
+    dissipated."""
+    fe, checked = m.fe, fe_cells_checked(m)
     return {"max": float(fe.damage.max(initial=0.0)),
+            "max_checked": float((fe.damage if checked is None else fe.damage[checked])
+                                 .max(initial=0.0)),
             "cells_damaged": int(np.count_nonzero(fe.damage)), "cells": int(fe.damage.size),
             "cells_broken": int(m.fe_broken().sum()),
             "damaged_bulk_volume_m3": float(fe.damage @ fe.cell_volume),
