@@ -188,8 +188,8 @@ def assemble_grown(d, old):
     for j in np.unique(pairs):
         material = p.O.bodies[int(ids[j])].material
         young[j], poisson[j] = material.young / before[j], material.poisson  # (β in young)
-    made = add_cohesive_links(ids[pairs], np.linalg.norm(ref_pos[pairs[:, 1]]
-                                                         - ref_pos[pairs[:, 0]], axis=1),
+    made = add_cohesive_links(ids[pairs], radius[pairs],
+                              np.linalg.norm(ref_pos[pairs[:, 1]] - ref_pos[pairs[:, 0]], axis=1),
                               young[pairs], poisson[pairs])
     new_links = np.array([(i.id1, i.id2) for i in made], int).reshape(-1, 2)
     if consistent:

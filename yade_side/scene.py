@@ -1,9 +1,9 @@
 """The YADE scene: engines for dynamics of cohesive-frictional CPM spheres."""
-import math
 
 import numpy as np
 
 from yade_side import import_yade
+from yade_side.affine import link_stiffness
 
 # Cohesive links are made between spheres up to this factor of the sum of radii apart
 # (first step only), so that a random dense packing gets ~11–12 links per sphere.
@@ -119,16 +119,17 @@ def link_pairs(ref, radius, new):
     return np.column_stack([a[keep], b[keep]])
 
 
-def add_cohesive_links(pairs, ref_length, young, poisson):
+def add_cohesive_links(pairs, radii, ref_length, young, poisson):
     """Cohesive links between the bodies of `pairs` (m, 2) ids of a running scene, as its
     first step made its links at the reference positions (create_cohesive_links), whatever
     the bodies' positions now: Ip2 makes an interaction cohesive only before its
     cohesiveThresholdIter (raised while they are made), and the law, at an interaction's
     first step, sets its reference length, cross-section, reference penetration and
     stiffnesses from the distance then; these are set here as the law would at
-    `ref_length` (m,), with the unweighted E = mean `young` and G = mean `poisson` × E of the
-    two ends ((m, 2) each: a weighted sphere's material carries its β), and the interactions
-    are made no longer fresh. Returns the interactions."""
+    `ref_length` (m,) (yade_side.affine.link_stiffness), with the ends' `radii`, the
+    unweighted E = mean `young` and G = mean `poisson` × E of the two ends ((m, 2) each: a
+    weighted sphere's material carries its β), and the interactions are made no longer
+    fresh. Returns the interactions."""
     yade = import_yade()
     from yade import utils
     O = yade.Omega()
@@ -144,13 +145,13 @@ def add_cohesive_links(pairs, ref_length, young, poisson):
             f.cohesiveThresholdIter = t
     E = 0.5 * (young[:, 0] + young[:, 1])
     G = 0.5 * (poisson[:, 0] + poisson[:, 1]) * E
-    for i, length, e, g in zip(made, ref_length.tolist(), E.tolist(), G.tolist()):
-        geom, p = i.geom, i.phys
-        section = math.pi * min(geom.refR1, geom.refR2) ** 2
+    section, kn, ks = link_stiffness(radii[:, 0], radii[:, 1], ref_length, E, G)
+    ref_pd = radii[:, 0] + radii[:, 1] - ref_length
+    for i, *values in zip(made, E.tolist(), G.tolist(), ref_length.tolist(), section.tolist(),
+                          ref_pd.tolist(), kn.tolist(), ks.tolist()):
+        p = i.phys
         i.iterMadeReal = O.iter - 1
-        p.E, p.G, p.refLength, p.crossSection = e, g, length, section
-        p.refPD = geom.refR1 + geom.refR2 - length
-        p.kn, p.ks = section * e / length, section * g / length
+        p.E, p.G, p.refLength, p.crossSection, p.refPD, p.kn, p.ks = values
         p.epsFracture = p.epsCrackOnset * p.relDuctility
     return made
 
