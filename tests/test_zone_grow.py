@@ -150,6 +150,15 @@ def test_a_block_in_uniform_strain_and_velocity_keeps_its_stress_and_energy_when
     assert was(new).sum() == len(old.spheres) and not was(new)[len(old.spheres):].any()
     converted = new.spheres.ids[new.in_de_zone & ~was(new)]
     assert len(converted) == (5 ** 3 - 3 ** 3) * 8
+    # the seam: the new links with an old sphere at one end, counted here from the reference
+    # positions (centres within 1.5 × the sum of the radii)
+    from scipy.spatial import cKDTree
+    ref, n_old = new.spheres.ref_pos, len(old.spheres)
+    seam_pairs = cKDTree(ref[n_old:]).query_ball_point(ref[:n_old], 1.5 * 2 * R * (1 + 1e-12))
+    seam = record["new_links_energy"]["seam"]
+    assert seam["links"] == sum(map(len, seam_pairs)) > 0
+    assert seam["of"] == len(new.parts.new_links)
+    assert 0 < seam["normal"] < record["new_links_energy"]["normal"]
     assert abs(link_stress(converted) / link_exact - 1) < 0.02
     stress = []
     for _ in range(200):

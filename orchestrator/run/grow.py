@@ -310,7 +310,10 @@ class GrowingModel:
         settle_forces()
         keep_engine_phase(n)
         after = new.energy_parts()
-        normal, shear = link_energy(new.parts.new_links)
+        made = new.parts.new_links
+        seam = np.isin([(i.id1, i.id2) for i in made], old.spheres.ids).reshape(-1, 2).any(1)
+        normal, shear = link_energy(made)
+        seam_normal, seam_shear = link_energy([i for i, s in zip(made, seam) if s])
         energy_before, energy_after = sum(before.values()), sum(after.values())
         self.watch = Watch(new, grid, self.ft, self.levels)
         self.watch.steps = n
@@ -325,7 +328,9 @@ class GrowingModel:
             "spheres_added": carried["bodies_added"], "spheres": int(new.sphere_count()),
             "energy_before": energy_before, "energy_after": energy_after,
             "energy_parts_before": before, "energy_parts_after": after,
-            "new_links_energy": {"normal": normal, "shear": shear},
+            "new_links_energy": {"normal": normal, "shear": shear,
+                                 "seam": {"links": int(seam.sum()), "of": len(made),
+                                          "normal": seam_normal, "shear": seam_shear}},
             "strain_energy_ratio": strain_energy_ratio(before, after),
             "carried": carried, "wall_s": perf_counter() - t0, "build_s": t_build,
             "carry_s": t_carry})
