@@ -11,7 +11,7 @@ links' energy at a conversion"). The slab's links are those of its first step (c
 1.5 × the sum of the radii), over the whole slab's volume, and over its interior (two
 diameters from every face) apart; C_FE is the scale's FE (its modulus the DE slab's bending
 modulus) and, beside it, an isotropic solid of the packing's own uniaxial modulus (its
-calibration's compression test) with the same ν.
+calibration's compression test, cases/slab/calibrations) with the same ν.
 """
 import argparse
 
@@ -37,7 +37,7 @@ def measure(scale, seed=1):
     c, r = packs.slab_centres, packs.slab_radii
     pairs = link_pairs(c, r, np.ones(len(c), bool))
     cpm = spec.cpm
-    specimen_young = concrete_set(scale, spec.concrete).compression[3]
+    specimen_young = concrete_set(scale, spec.concrete).young
     fe = isotropic_stiffness(spec.young, spec.poisson)
     packing = isotropic_stiffness(specimen_young, spec.poisson)
     e = uniaxial_stress_strain(spec.poisson)

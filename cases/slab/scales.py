@@ -68,6 +68,7 @@ CALIBRATIONS = Path(__file__).with_name("calibrations")
 class Concrete:
     """A CPM set of one scale and what its uniaxial tests measured on the scale's packing."""
     cpm: dict                   # CpmMat micro-parameters (the bulk density apart)
+    young: float                # E (Pa) of the compression test, between gauges mid-specimen
     poisson: float              # ν
     compressive_strength: float  # fc (Pa)
     tensile_strength: float     # ft (Pa): the tension (or separation) test's peak
@@ -107,7 +108,7 @@ def concrete_set(scale, name):
             raise ValueError(f"{separation}: params are not those of {path.name}: not the "
                              f"same CPM set")
         gf = test["measured"]["fracture_energy"]
-    return Concrete(cpm, m["nu"], m["fc"], m["ft"], gf,
+    return Concrete(cpm, m["E"], m["nu"], m["fc"], m["ft"], gf,
                     str(path.relative_to(Path(__file__).parents[2])),
                     (np.array(curve["strain"]), np.array(curve["stress"]), record["size"][0],
                      m["E_ends"]))
