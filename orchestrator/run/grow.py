@@ -8,11 +8,12 @@ through the one builder (orchestrator.builder.assemble_grown) and given the old 
   FE field at their centre, position ref + k u, velocity k v, rotation and spin h u, h v
   (½ curl), and outside the new band the gap between the old DE's edge and that field,
   carried on harmonically (continued_gaps); their links take the reference lengths of a
-  fresh scene, so the positions give them their normal strain exactly, and CPM damages them
-  from that strain at their first step (along each link's own direction); a cell's
-  compression damage becomes their normal plastic strain (link_compaction); with `shear`
-  they take the FE's affine shear strain too (by default not: it adds 2-3 × the energy the
-  cells had, as a random packing's links under an affine shear do; docs/auto-zone.md);
+  fresh scene stretched so that each one's normal strain is the FE field's (the gap a
+  stress-free offset: fe_stretch), and CPM damages them from that strain at their first
+  step (along each link's own direction); a cell's compression damage becomes their normal
+  plastic strain (link_compaction); with `shear` they take the FE's affine shear strain
+  too (by default not: it adds 2-3 × the energy the cells had, as a random packing's links
+  under an affine shear do; docs/auto-zone.md);
 - FE nodes and cells that stay FE (matched by coordinates): u, v, t and the damage history;
 - the coupling: the band spheres' accumulated rotations (the old band's kept, the new ones'
   h u), the energy meter.
@@ -54,10 +55,11 @@ def match(old, new, tol):
 def carry(old, new, tol, shear=False):
     """Put `new`, the model of a grown zone built in the running scene of `old`
     (orchestrator.builder.assemble_grown), in old's state: the spheres it added take old's FE
-    field and the gap carried on (continued_gaps), their links the FE's compaction (and with
-    `shear` its affine shear strain); the FE nodes and cells that stay FE, the band's
-    accumulated rotations and the exchange's state are old's. Returns the counts of what was
-    carried."""
+    field and the gap carried on (continued_gaps), their links the field's normal strain
+    (fe_stretch), the FE's compaction (and with `shear` its affine shear strain); the FE
+    nodes and cells that stay FE, the band's accumulated rotations and the exchange's state
+    are old's. Returns the counts of what was carried and the links' largest stretch of
+    their reference length (fe_stretch)."""
     from yade_side.bulk import rotation_quaternion
     from yade_side.memory import HistoryBlocks, find_offset
     from yade_side.transfer import EPS_N_PL, EPS_T, SAMPLE, lever_arms_are_radii
@@ -75,13 +77,20 @@ def carry(old, new, tol, shear=False):
                           lambda j: (state[j, 0:3] - ref[j], state[j, 3:6]),
                           lambda j: old_fe.covers(ref[j]),
                           lambda j: _field(old_fe, ref[j]))
+    on_field = state[:, 0:3].copy()            # the FE field's positions, before the gaps
     state[added[~band], 0:6] += gaps
     s.write()
-    made = new.parts.new_links
-    if made and (old_fe.carries_damage or shear):
+    made, stretch = new.parts.new_links, 0.0
+    if made:
         row = np.full(s.ids.max() + 1, -1)
         row[s.ids] = np.arange(len(s))
         ends = row[np.array([(i.id1, i.id2) for i in made])]
+        kept = np.unique(ends[ends < len(old.spheres)])      # the old DE's, on the old FE
+        kept = kept[old_fe.covers(ref[kept])]
+        on_field[kept] = ref[kept] + _field(old_fe, ref[kept])[0]
+        stretch = fe_stretch(made, ends, on_field, state[:, 0:3],
+                             np.isin(ends, kept) | (ends >= len(old.spheres)))
+    if made and (old_fe.carries_damage or shear):
         blocks = HistoryBlocks([i.phys for i in made], find_offset(made, SAMPLE))
         values = blocks.read()
         axis = ref[ends[:, 1]] - ref[ends[:, 0]]
@@ -112,7 +121,30 @@ def carry(old, new, tol, shear=False):
     new.stepper.exchange.to_fe = old.stepper.exchange.to_fe
     new.stepper.exchange.net = old.stepper.exchange.net
     return {"bodies_kept": len(old.spheres), "bodies_added": len(added),
-            "links_new": len(made)}
+            "links_new": len(made), "stretch": stretch}
+
+
+def fe_stretch(links, ends, on_field, now, known):
+    """Each new link's normal strain made the FE field's stretch of it, |Δ on_field| / L − 1
+    (L its reference length), whatever the gap between its spheres' positions `now` and the
+    field: its reference length × |Δ now| / |Δ on_field| (refPD, kn and ks with it, as the
+    law sets them from the reference length). The gap carried on (continued_gaps) keeps the
+    motion continuous at the old DE's edge; as a stress-free offset it adds no strain energy.
+    links: YADE's; ends (m, 2): rows of `now` and `on_field` ((n, 3) positions); known:
+    (m, 2) mask of the ends whose field position is known (a link with another end is left).
+    Returns the largest |scale − 1|."""
+    both = known.all(axis=1)
+    d_field = np.linalg.norm(on_field[ends[:, 1]] - on_field[ends[:, 0]], axis=1)
+    d_now = np.linalg.norm(now[ends[:, 1]] - now[ends[:, 0]], axis=1)
+    scale = np.where(both, d_now / np.where(both, d_field, 1.0), 1.0)
+    for i, c in zip(links, scale.tolist()):
+        if c != 1.0:
+            p = i.phys
+            radii = p.refPD + p.refLength
+            p.refLength *= c
+            p.refPD = radii - p.refLength
+            p.kn, p.ks = p.kn / c, p.ks / c
+    return float(np.abs(scale - 1).max(initial=0.0))
 
 
 def continued_gaps(ref, radius, free, zero, old_motion, covered, fe_motion):
