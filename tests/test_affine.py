@@ -72,3 +72,16 @@ def test_an_isotropic_solid_against_itself_and_its_moduli():
     assert C[5, 5] == pytest.approx(2 * mu, rel=1e-15)
     assert energy_ratio_bounds(C, C) == pytest.approx((1, 1), rel=1e-12)
     assert energy_ratio_bounds(2 * C, C) == pytest.approx((2, 2), rel=1e-12)
+
+
+def test_the_slabs_links_against_its_fe():
+    """`python3 -m cases.slab.link_energy` on the small slab: shear springs add a positive
+    semi-definite term, so neither bound of the energy ratio falls when they are counted."""
+    from cases.slab.link_energy import measure
+    m = measure("small")
+    assert m["links"] > 5 * m["spheres"]
+    for where in ("slab", "interior"):
+        normal, both = m[f"{where}_normal"], m[f"{where}_normal_and_shear"]
+        for key in ("vs_fe", "vs_packing"):
+            assert normal[key][0] <= normal[key][1]
+            assert both[key][0] >= normal[key][0] and both[key][1] >= normal[key][1]

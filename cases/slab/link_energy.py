@@ -69,8 +69,8 @@ def main(argv=None):
     for scale in a.scale or list(SCALES):
         m = measure(scale, a.seed)
         print(f"{scale} (seed {m['seed']}): {m['spheres']} spheres, {m['links']} links; FE "
-              f"{m['fe_young'] / 1e9:.1f} GPa, the packing's uniaxial {m['packing_young'] / 1e9:.1f}"
-              f" GPa, ν {m['nu']:.3f}")
+              f"{m['fe_young'] / 1e9:.1f} GPa, the packing's uniaxial "
+              f"{m['packing_young'] / 1e9:.1f} GPa, ν {m['nu']:.3f}")
         for key in ("slab_normal", "slab_normal_and_shear", "interior_normal",
                     "interior_normal_and_shear"):
             f = m[key]

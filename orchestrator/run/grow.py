@@ -254,9 +254,10 @@ class GrowingModel:
     run so far). Bodies, nodes and cells of two models match within `tol` (m); `shear`:
     see carry; `last_step`: the run's last step, where a trip converts nothing (no step
     follows; the post-run check reads the same cells and warns). Listeners in `on_grow` are
-    told (old, new, k) after the k-th conversion. Reads of attributes go to the current model. Checkpoints: checkpoint_state() is what the
-    growth adds to the current model's state (orchestrator.run.restart); `resumed` (a
-    ResumedGrowth read back from one) builds the model of its last zone and takes its growth."""
+    told (old, new, k) after the k-th conversion. Reads of attributes go to the current
+    model. Checkpoints: checkpoint_state() is what the growth adds to the current model's
+    state (orchestrator.run.restart); `resumed` (a ResumedGrowth read back from one) builds
+    the model of its last zone and takes its growth."""
 
     def __init__(self, build, grid, zone, limit, tensile_strength, levels, tol, budget=None,
                  log=print, shear=False, resumed=None, last_step=None):
