@@ -1,6 +1,8 @@
 """What a DE zone grown in place (orchestrator.run.grow) writes into the links it made, and
 reads of them: where the FE's state goes in a CPM link's history (yade_side.memory), their
 elastic energy, and the scene's shear kinematics."""
+import numpy as np
+
 from yade_side import import_yade
 
 # the 19 history doubles (memory.HISTORY): 7 scalars, then sigmaT, Fs, epsTPl, epsT, whose
@@ -10,17 +12,15 @@ EPS_T = slice(16, 19)
 SAMPLE = 256   # links on which the history's place in memory is verified
 
 
-def link_energy(links):
-    """(normal, shear) elastic energy of the interactions `links` (YADE's), as the law's
-    elasticEnergy() sums it: ½ |Fn|²/kn + ½ |Fs|²/ks with the forces of the last step; a link
-    broken since it was made counts 0."""
-    normal = shear = 0.0
-    for i in links:
-        if i.isReal:
-            p = i.phys
-            normal += 0.5 * p.normalForce.squaredNorm() / p.kn
-            shear += 0.5 * p.shearForce.squaredNorm() / p.ks
-    return normal, shear
+def link_energies(links):
+    """(normal, shear) elastic energy of each of the interactions `links` (YADE's), (m,) each,
+    as the law's elasticEnergy() counts it: ½ |Fn|²/kn and ½ |Fs|²/ks with the forces of the
+    last step; a link broken since it was made holds 0."""
+    parts = [(0.5 * i.phys.normalForce.squaredNorm() / i.phys.kn,
+              0.5 * i.phys.shearForce.squaredNorm() / i.phys.ks) if i.isReal else (0.0, 0.0)
+             for i in links]
+    return tuple(np.array(column, float) for column in zip(*parts)) if parts else \
+        (np.zeros(0), np.zeros(0))
 
 
 def lever_arms_are_radii():

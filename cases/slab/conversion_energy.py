@@ -19,12 +19,21 @@ from pathlib import Path
 
 import numpy as np
 
+from yade_side.transfer import link_energies
 
-def link_energies(links):
-    """(normal, shear) energy of each of the interactions `links` (YADE's), (m,) each."""
-    normal = np.array([0.5 * i.phys.normalForce.squaredNorm() / i.phys.kn for i in links])
-    shear = np.array([0.5 * i.phys.shearForce.squaredNorm() / i.phys.ks for i in links])
-    return normal, shear
+
+def links_among(O, ids, inside=None):
+    """The scene's cohesive links between two of the spheres `ids` (and, with `inside`, a mask
+    over ids, between two of those): (the interactions, (m, 2) rows of their ends in ids)."""
+    links = [i for i in O.interactions if i.isReal and i.phys.isCohesive]
+    pairs = np.array([(i.id1, i.id2) for i in links], int).reshape(-1, 2)
+    row = np.full(max(ids.max(), pairs.max(initial=0)) + 1, -1)
+    row[ids] = np.arange(len(ids))
+    ends = row[pairs]
+    mine = (ends >= 0).all(axis=1)
+    if inside is not None:
+        mine[mine] = inside[ends[mine]].all(axis=1)
+    return [i for i, m in zip(links, mine) if m], ends[mine]
 
 
 def pair_keys(ref_a, ref_b, radius):
@@ -44,15 +53,9 @@ def coupled_phase(spec, out):
     if not model.conversions:
         raise SystemExit(f"no conversion within the run's {spec.steps} steps")
     new = model.current
-    ids, ref = new.spheres.ids, new.spheres.ref_pos
-    row = np.full(ids.max() + 1, -1)
-    row[ids] = np.arange(len(ids))
-    inside = new.in_de_zone
+    ref = new.spheres.ref_pos
     made = {(i.id1, i.id2) for i in new.parts.new_links}
-    links = [i for i in O.interactions if i.isReal and i.phys.isCohesive
-             and max(i.id1, i.id2) < len(row) and (row[[i.id1, i.id2]] >= 0).all()
-             and inside[row[[i.id1, i.id2]]].all()]
-    ends = row[np.array([(i.id1, i.id2) for i in links], int).reshape(-1, 2)]
+    links, ends = links_among(O, new.spheres.ids, new.in_de_zone)
     normal, shear = link_energies(links)
     np.savez(out, a=ref[ends[:, 0]], b=ref[ends[:, 1]], normal=normal, shear=shear,
              new=np.array([(i.id1, i.id2) in made for i in links]), time=O.time,
@@ -70,12 +73,8 @@ def full_phase(spec, saved):
     while O.time + 0.5 * m.dt < float(d["time"]):
         m.step()
     settle_forces()
-    ids, ref = m.spheres.ids, m.spheres.ref_pos
-    row = np.full(ids.max() + 1, -1)
-    row[ids] = np.arange(len(ids))
-    links = [i for i in O.interactions if i.isReal and i.phys.isCohesive
-             and max(i.id1, i.id2) < len(row) and (row[[i.id1, i.id2]] >= 0).all()]
-    ends = row[np.array([(i.id1, i.id2) for i in links], int).reshape(-1, 2)]
+    ref = m.spheres.ref_pos
+    links, ends = links_among(O, m.spheres.ids)
     normal, shear = link_energies(links)
     radius = float(d["radius"])
     energy = dict(zip(pair_keys(ref[ends[:, 0]], ref[ends[:, 1]], radius),

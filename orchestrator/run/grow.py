@@ -315,7 +315,7 @@ class GrowingModel:
         """Convert the cells `tripped` flags, and `levels.margin` more, and go on in the model
         of the grown zone; ZoneLimit if the zone cannot grow so."""
         from yade_side.scene import keep_engine_phase, settle_forces
-        from yade_side.transfer import link_energy
+        from yade_side.transfer import link_energies
         t0 = perf_counter()
         grid, old, n = self.cell_grid, self.current, self.watch.steps
         grown = tripped.grown(self.zone, grid, self.levels.margin, self.limit)
@@ -345,8 +345,8 @@ class GrowingModel:
         after = new.energy_parts()
         made = new.parts.new_links
         seam = np.isin([(i.id1, i.id2) for i in made], old.spheres.ids).reshape(-1, 2).any(1)
-        normal, shear = link_energy(made)
-        seam_normal, seam_shear = link_energy([i for i, s in zip(made, seam) if s])
+        normal, shear = link_energies(made)
+        total = lambda values: sum(values.tolist(), 0.0)
         energy_before, energy_after = sum(before.values()), sum(after.values())
         self.watch = Watch(new, grid, self.ft, self.levels)
         self.watch.steps = n
@@ -361,9 +361,10 @@ class GrowingModel:
             "spheres_added": carried["bodies_added"], "spheres": int(new.sphere_count()),
             "energy_before": energy_before, "energy_after": energy_after,
             "energy_parts_before": before, "energy_parts_after": after,
-            "new_links_energy": {"normal": normal, "shear": shear,
+            "new_links_energy": {"normal": total(normal), "shear": total(shear),
                                  "seam": {"links": int(seam.sum()), "of": len(made),
-                                          "normal": seam_normal, "shear": seam_shear}},
+                                          "normal": total(normal[seam]),
+                                          "shear": total(shear[seam])}},
             "strain_energy_ratio": strain_energy_ratio(before, after),
             "carried": carried, "wall_s": perf_counter() - t0, "build_s": t_build,
             "carry_s": t_carry})
