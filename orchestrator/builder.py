@@ -93,7 +93,7 @@ class Parts:
     scene: object = None       # the description's DE scene
     unweighted: tuple = None   # (mass, inertia) of every sphere of `ids` before any weighting
     ref_pos: np.ndarray = None  # reference positions of `ids` where they are not read at build
-    new_links: list = None     # the interactions (YADE's) a zone grown in place made
+    new_links: object = None   # the links a zone grown in place made (scene.NewLinks)
     initial_links: np.ndarray = None   # (m, 2) ids of the initial links, where not read
 
 
@@ -188,15 +188,15 @@ def assemble_grown(d, old):
     for j in np.unique(pairs):
         material = p.O.bodies[int(ids[j])].material
         young[j], poisson[j] = material.young / before[j], material.poisson  # (β in young)
-    made = add_cohesive_links(ids[pairs], radius[pairs],
-                              np.linalg.norm(ref_pos[pairs[:, 1]] - ref_pos[pairs[:, 0]], axis=1),
-                              young[pairs], poisson[pairs])
-    new_links = np.array([(i.id1, i.id2) for i in made], int).reshape(-1, 2)
-    if consistent:
-        from yade_side.weighting import weight_links, weight_masses
+    if consistent:      # the old spheres' interactions and every sphere's mass and material
+        from yade_side.weighting import weight_contacts, weight_links, weight_masses
         changed = np.flatnonzero(beta != before)
         weight_masses(ids[changed], beta[changed], tuple(u[changed] for u in unweighted))
-        weight_links(ids, beta, before, fresh=new_links)
+        weight_links(ids[:n_old], beta[:n_old], before[:n_old])
+        weight_contacts(ids[n_old:], beta[n_old:])
+    made = add_cohesive_links(ids[pairs], radius[pairs],
+                              np.linalg.norm(ref_pos[pairs[:, 1]] - ref_pos[pairs[:, 0]], axis=1),
+                              young[pairs], poisson[pairs], 0.5 * beta[pairs].sum(axis=1))
     bridge = BodySet(ids[index], ref_pos=ref_pos[index])
     relaxation, notes = _relaxation(d, bridge, dt, critical)
     coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation)
@@ -204,7 +204,7 @@ def assemble_grown(d, old):
     inside = d.scene.attach(stepper.couple)
     return Parts(p.O, ids, fe, d.bridging, beta, index, np.empty(0, int), stepper, dt, critical,
                  relaxation, notes, inside, False, consistent, None, d.scene, unweighted,
-                 ref_pos, made, np.vstack([old.damage.links, new_links]))
+                 ref_pos, made, np.vstack([old.damage.links, made.ids]))
 
 
 class Model:

@@ -45,6 +45,12 @@ def test_union_depth_is_the_chebyshev_distance_outside():
     small = CellZone(lo, hi)
     small.CHUNK = 7
     assert np.array_equal(small.depth(x), d)
+    # within(x, s) is depth <= s, through the bounding box's cut (which leaves out part of
+    # the sample at the smaller s): inside the union, at its boundary, out past the sample
+    box = np.maximum(lo.min(axis=0)[:2] - x[:, :2], x[:, :2] - hi.max(axis=0)[:2]).max(axis=1)
+    assert (box > 0.1).sum() > 1000
+    for s in (-0.1, 0.0, 0.1, 0.25, 0.6, 3.0):
+        assert np.array_equal(zone.within(x, s), d <= s)
 
 
 def test_band_is_the_cell_layers_around_the_zone():

@@ -385,8 +385,9 @@ def test_a_gap_at_the_old_edge_is_no_strain_of_the_new_links():
         new = block.current
         at = {int(i): tuple(np.round(p / R, 6)) for i, p in zip(new.spheres.ids,
                                                                 new.spheres.ref_pos)}
-        return ({tuple(sorted((at[i.id1], at[i.id2]))): i.phys.epsN
-                 for i in new.parts.new_links},
+        made = new.parts.new_links
+        return ({tuple(sorted((at[a], at[b]))): p.epsN
+                 for (a, b), p in zip(made.ids.tolist(), made.phys)},
                 block.conversions[-1]["carried"]["stretch"])
 
     plain, _ = new_link_strains(np.zeros(3))

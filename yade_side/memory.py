@@ -248,7 +248,12 @@ def find_offset(links, sample=None):
     offset is the class's for this process: later sampled calls verify it on a few of their
     links (_REVERIFY) and search again only if they disagree; a call without `sample` (a
     checkpoint) verifies every link. CheckpointError if it cannot be found."""
-    return _locate([i.phys for i in links], histories, WIDTH, sample, "the CPM history",
+    return history_offset([i.phys for i in links], sample)
+
+
+def history_offset(phys, sample=None):
+    """find_offset of the links whose CpmPhys are `phys`."""
+    return _locate(phys, histories, WIDTH, sample, "the CPM history",
                    HISTORY_OFFSET.get(yade_version()))
 
 

@@ -1,5 +1,7 @@
 """The YADE scene: engines for dynamics of cohesive-frictional CPM spheres."""
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from yade_side import import_yade
@@ -119,7 +121,7 @@ def link_pairs(ref, radius, new):
     return np.column_stack([a[keep], b[keep]])
 
 
-def add_cohesive_links(pairs, radii, ref_length, young, poisson):
+def add_cohesive_links(pairs, radii, ref_length, young, poisson, weight=1.0):
     """Cohesive links between the bodies of `pairs` (m, 2) ids of a running scene, as its
     first step made its links at the reference positions (create_cohesive_links), whatever
     the bodies' positions now: Ip2 makes an interaction cohesive only before its
@@ -128,8 +130,9 @@ def add_cohesive_links(pairs, radii, ref_length, young, poisson):
     stiffnesses from the distance then; these are set here as the law would at
     `ref_length` (m,) (yade_side.affine.link_stiffness), with the ends' `radii`, the
     unweighted E = mean `young` and G = mean `poisson` × E of the two ends ((m, 2) each: a
-    weighted sphere's material carries its β), and the interactions are made no longer
-    fresh. Returns the interactions."""
+    weighted sphere's material carries its β), cross-section and stiffnesses × `weight`
+    ((m,) or a scalar: the links' energy weight, yade_side.weighting), and the interactions
+    are made no longer fresh. Returns them (NewLinks)."""
     yade = import_yade()
     from yade import utils
     O = yade.Omega()
@@ -145,15 +148,32 @@ def add_cohesive_links(pairs, radii, ref_length, young, poisson):
             f.cohesiveThresholdIter = t
     E = 0.5 * (young[:, 0] + young[:, 1])
     G = 0.5 * (poisson[:, 0] + poisson[:, 1]) * E
-    section, kn, ks = link_stiffness(radii[:, 0], radii[:, 1], ref_length, E, G)
+    section, kn, ks = (weight * v for v in
+                       link_stiffness(radii[:, 0], radii[:, 1], ref_length, E, G))
     ref_pd = radii[:, 0] + radii[:, 1] - ref_length
+    phys, ends = [], []
     for i, *values in zip(made, E.tolist(), G.tolist(), ref_length.tolist(), section.tolist(),
                           ref_pd.tolist(), kn.tolist(), ks.tolist()):
         p = i.phys
         i.iterMadeReal = O.iter - 1
         p.E, p.G, p.refLength, p.crossSection, p.refPD, p.kn, p.ks = values
         p.epsFracture = p.epsCrackOnset * p.relDuctility
-    return made
+        phys.append(p)
+        ends.append((i.id1, i.id2))
+    return NewLinks(made, np.array(ends, int).reshape(-1, 2), phys)
+
+
+@dataclass
+class NewLinks:
+    """Links made in a running scene (add_cohesive_links): YADE's interactions, their ids
+    (m, 2) as YADE holds them (id1, id2: the normal's direction) and their CpmPhys, read once
+    (each Python access to an interaction costs microseconds)."""
+    interactions: list
+    ids: np.ndarray
+    phys: list
+
+    def __len__(self):
+        return len(self.interactions)
 
 
 def settle_forces():

@@ -12,13 +12,14 @@ EPS_T = slice(16, 19)
 SAMPLE = 256   # links on which the history's place in memory is verified
 
 
-def link_energies(links):
+def link_energies(links, phys=None):
     """(normal, shear) elastic energy of each of the interactions `links` (YADE's), (m,) each,
     as the law's elasticEnergy() counts it: ½ |Fn|²/kn and ½ |Fs|²/ks with the forces of the
-    last step; a link broken since it was made holds 0."""
-    parts = [(0.5 * i.phys.normalForce.squaredNorm() / i.phys.kn,
-              0.5 * i.phys.shearForce.squaredNorm() / i.phys.ks) if i.isReal else (0.0, 0.0)
-             for i in links]
+    last step; a link broken since it was made holds 0. `phys`: their CpmPhys, if read."""
+    phys = (i.phys for i in links) if phys is None else phys
+    parts = [(0.5 * p.normalForce.squaredNorm() / p.kn,
+              0.5 * p.shearForce.squaredNorm() / p.ks) if i.isReal else (0.0, 0.0)
+             for i, p in zip(links, phys)]
     return tuple(np.array(column, float) for column in zip(*parts)) if parts else \
         (np.zeros(0), np.zeros(0))
 

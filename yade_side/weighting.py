@@ -26,22 +26,20 @@ def weight_masses(ids, beta, unweighted=None):
         state.mass, state.inertia = beta[j] * mass, (beta[j] * inertia,) * 3
 
 
-def weight_links(ids, beta, before=None, fresh=()):
+def weight_links(ids, beta, before=None):
     """Cross-section and stiffnesses of every link between two of the spheres `ids` × the
     mean β of the two, and the contacts made later alike (weight_contacts). Call once, when
     the cohesive links exist; or, for spheres that carried the weights `before` (a DE zone
-    grown in place; 1 for spheres just added), × the ratio of the mean β after to before: on
-    every interaction of a sphere whose β changed (a link: cross-section and stiffnesses; a
-    contact: E, G and stiffnesses, which its spheres' weighted materials gave it), and on the
-    links `fresh` ((m, 2) ids, made unweighted) × the mean β. Interactions with a sphere not
-    in `ids` are left as they are."""
+    grown in place), × the ratio of the mean β after to before, on every interaction of a
+    sphere whose β changed (a link: cross-section and stiffnesses; a contact: E, G and
+    stiffnesses, which its spheres' weighted materials gave it). Interactions with a sphere
+    not in `ids` are left as they are (links made later take their weight when made:
+    yade_side.scene.add_cohesive_links)."""
     O = import_yade().Omega()
     ids, beta = np.asarray(ids, int), np.asarray(beta, float)
     before = np.ones(len(ids)) if before is None else np.asarray(before, float)
     index = np.full(ids.max() + 1, -1)
     index[ids] = np.arange(len(ids))
-    fresh = np.asarray(fresh, int).reshape(-1, 2)
-    made = {(int(a), int(b)) for a, b in np.sort(fresh, axis=1)}
     changed = beta != before
     index, n = index.tolist(), len(index)
     for j in np.flatnonzero(changed):         # the reweighted spheres' interactions only
@@ -49,8 +47,7 @@ def weight_links(ids, beta, before=None, fresh=()):
         for i in O.interactions.withBody(me):
             other = i.id2 if i.id1 == me else i.id1
             k = index[other] if other < n else -1
-            if k < 0 or not i.isReal or (changed[k] and other < me) or \
-                    (min(me, other), max(me, other)) in made:    # (once per link)
+            if k < 0 or not i.isReal or (changed[k] and other < me):    # (once per link)
                 continue
             w = (beta[j] + beta[k]) / (before[j] + before[k])
             p = i.phys
@@ -58,12 +55,6 @@ def weight_links(ids, beta, before=None, fresh=()):
                 p.crossSection, p.kn, p.ks = w * p.crossSection, w * p.kn, w * p.ks
             else:
                 p.E, p.G, p.kn, p.ks = w * p.E, w * p.G, w * p.kn, w * p.ks
-    for a, b in fresh:
-        ka, kb = index[a], index[b]
-        w = 0.5 * (beta[ka] + beta[kb])
-        if w != 1.0:
-            p = O.interactions[int(a), int(b)].phys
-            p.crossSection, p.kn, p.ks = w * p.crossSection, w * p.kn, w * p.ks
     weight_contacts(ids, beta, before)
 
 

@@ -54,7 +54,7 @@ def coupled_phase(spec, out):
         raise SystemExit(f"no conversion within the run's {spec.steps} steps")
     new = model.current
     ref = new.spheres.ref_pos
-    made = {(i.id1, i.id2) for i in new.parts.new_links}
+    made = set(map(tuple, new.parts.new_links.ids.tolist()))
     links, ends = links_among(O, new.spheres.ids, new.in_de_zone)
     normal, shear = link_energies(links)
     np.savez(out, a=ref[ends[:, 0]], b=ref[ends[:, 1]], normal=normal, shear=shear,

@@ -18,7 +18,15 @@ def check_weighting(owner, weighting):
         raise ValueError(f"{owner}: weighting must be one of {WEIGHTINGS}, got {weighting!r}")
 
 
-class HalfSpaceZone:
+class Zone:
+    """A DE zone: depth(x) of points (n, 3) out of it (negative inside)."""
+
+    def within(self, x, distance):
+        """Mask of the points x no deeper out of the zone than `distance`."""
+        return self.depth(x) <= distance
+
+
+class HalfSpaceZone(Zone):
     """DE zone {x : (x − point)·normal < 0}: a plane interface, `normal` pointing to the FE side."""
 
     def __init__(self, point, normal):
@@ -33,7 +41,7 @@ class HalfSpaceZone:
         return (np.atleast_2d(x) - self.point) @ self.normal
 
 
-class BoxZone:
+class BoxZone(Zone):
     """Axis-aligned box DE zone, through the whole structure along the axes not in `axes`.
 
     The depth is the Chebyshev distance out of the box over `axes`, so the bridging layers are
@@ -53,7 +61,7 @@ class BoxZone:
         return out.max(axis=1)
 
 
-class CellZone:
+class CellZone(Zone):
     """DE zone made of axis-aligned cells (a union of boxes, e.g. FE cells of a structured
     grid), through the whole structure along the axes not in `axes`; lo, hi: (n_cells, 3)
     corners. The depth is the smallest of the cells' BoxZone depths: outside the zone it is
@@ -82,6 +90,17 @@ class CellZone:
         if len(self._lo) > self.NEAREST and np.allclose(size, size[0, 0], rtol=1e-12, atol=0):
             from scipy.spatial import cKDTree
             self._tree = cKDTree(0.5 * (self._lo + self._hi))
+
+    def within(self, x, distance):
+        # the depth is at least the Chebyshev distance out of the cells' bounding box: only
+        # the points that near are looked up (a grown zone scans its whole packing)
+        x = np.atleast_2d(x)
+        p = x[:, self.axes]
+        near = np.maximum(self._lo.min(axis=0) - p, p - self._hi.max(axis=0)).max(axis=1) \
+            <= distance
+        out = np.zeros(len(x), bool)
+        out[near] = self.depth(x[near]) <= distance
+        return out
 
     def depth(self, x):
         x = np.atleast_2d(x)[:, self.axes]
@@ -129,7 +148,7 @@ class Bridging:
 
     def covers(self, x):
         """Mask of the points of a coupled model's DE part: the DE zone and the band."""
-        return self.zone.depth(x) <= self.width
+        return self.zone.within(x, self.width)
 
     def contains(self, x, tol=0.0):
         """Mask of the points in the bridging domain (0 ≤ s ≤ width, widened by tol)."""

@@ -61,7 +61,7 @@ def carry(old, new, tol, shear=False):
     are old's. Returns the counts of what was carried and the links' largest stretch of
     their reference length (fe_stretch)."""
     from yade_side.bulk import rotation_quaternion
-    from yade_side.memory import HistoryBlocks, find_offset
+    from yade_side.memory import HistoryBlocks, history_offset
     from yade_side.transfer import EPS_N_PL, EPS_T, SAMPLE, lever_arms_are_radii
     old_fe, fe, s = old.fe, new.fe, new.spheres
     ref, radius = s.ref_pos, s.radius
@@ -84,14 +84,14 @@ def carry(old, new, tol, shear=False):
     if made:
         row = np.full(s.ids.max() + 1, -1)
         row[s.ids] = np.arange(len(s))
-        ends = row[np.array([(i.id1, i.id2) for i in made])]
+        ends = row[made.ids]
         kept = np.unique(ends[ends < len(old.spheres)])      # the old DE's, on the old FE
         kept = kept[old_fe.covers(ref[kept])]
         on_field[kept] = ref[kept] + _field(old_fe, ref[kept])[0]
-        stretch = fe_stretch(made, ends, on_field, state[:, 0:3],
+        stretch = fe_stretch(made.phys, ends, on_field, state[:, 0:3],
                              np.isin(ends, kept) | (ends >= len(old.spheres)))
     if made and (old_fe.carries_damage or shear):
-        blocks = HistoryBlocks([i.phys for i in made], find_offset(made, SAMPLE))
+        blocks = HistoryBlocks(made.phys, history_offset(made.phys, SAMPLE))
         values = blocks.read()
         axis = ref[ends[:, 1]] - ref[ends[:, 0]]
         length = np.linalg.norm(axis, axis=1)
@@ -124,22 +124,21 @@ def carry(old, new, tol, shear=False):
             "links_new": len(made), "stretch": stretch}
 
 
-def fe_stretch(links, ends, on_field, now, known):
+def fe_stretch(phys, ends, on_field, now, known):
     """Each new link's normal strain made the FE field's stretch of it, |Δ on_field| / L − 1
     (L its reference length), whatever the gap between its spheres' positions `now` and the
     field: its reference length × |Δ now| / |Δ on_field| (refPD, kn and ks with it, as the
     law sets them from the reference length). The gap carried on (continued_gaps) keeps the
     motion continuous at the old DE's edge; as a stress-free offset it adds no strain energy.
-    links: YADE's; ends (m, 2): rows of `now` and `on_field` ((n, 3) positions); known:
+    phys: the links' CpmPhys; ends (m, 2): rows of `now` and `on_field` ((n, 3) positions); known:
     (m, 2) mask of the ends whose field position is known (a link with another end is left).
     Returns the largest |scale − 1|."""
     both = known.all(axis=1)
     d_field = np.linalg.norm(on_field[ends[:, 1]] - on_field[ends[:, 0]], axis=1)
     d_now = np.linalg.norm(now[ends[:, 1]] - now[ends[:, 0]], axis=1)
     scale = np.where(both, d_now / np.where(both, d_field, 1.0), 1.0)
-    for i, c in zip(links, scale.tolist()):
+    for p, c in zip(phys, scale.tolist()):
         if c != 1.0:
-            p = i.phys
             radii = p.refPD + p.refLength
             p.refLength *= c
             p.refPD = radii - p.refLength
@@ -344,8 +343,8 @@ class GrowingModel:
         keep_engine_phase(n)
         after = new.energy_parts()
         made = new.parts.new_links
-        seam = np.isin([(i.id1, i.id2) for i in made], old.spheres.ids).reshape(-1, 2).any(1)
-        normal, shear = link_energies(made)
+        seam = np.isin(made.ids, old.spheres.ids).any(axis=1)
+        normal, shear = link_energies(made.interactions, made.phys)
         total = lambda values: sum(values.tolist(), 0.0)
         energy_before, energy_after = sum(before.values()), sum(after.values())
         self.watch = Watch(new, grid, self.ft, self.levels)
