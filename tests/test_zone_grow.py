@@ -202,6 +202,17 @@ def test_slab_refuses_bad_growing_or_fixed_cell_zones(options, message):
     assert "\n" not in str(e.value)
 
 
+def test_a_growing_zone_needs_a_yade_whose_memory_layout_was_verified(monkeypatch):
+    from orchestrator.run.grow import GrowingModel
+    from yade_side import import_yade, memory
+    import_yade()
+    monkeypatch.setattr(memory, "VERIFIED", ("0.0",))
+    with pytest.raises(ValueError, match=r"^a zone that grows during the run writes its new "
+                                         r"links in YADE's memory, .* verified on YADE 0.0 only, "
+                                         r"not on this YADE \S+$"):
+        GrowingModel(*[None] * 7)
+
+
 def test_a_fixed_zone_of_cells_is_that_zone(tmp_path):
     """--zone-from DIR reads the cells the run in DIR ended with; the model's grid is made of
     them; a run that did not end clean is refused with one line."""
@@ -258,6 +269,23 @@ def test_history_and_normal_blocks_read_and_write_what_yades_python_view_reads()
     turned = n[:, [1, 2, 0]]
     normals.write(turned)
     assert same_bits(turned, [tuple(g.normal) for g in geoms])
+    # named fields (yade_side.memory.Fields): found by probing one link, which is left as it
+    # was; read and written as Python reads them, scalars and vectors
+    from yade_side import memory
+    from yade_side.memory import Fields
+    memory._field_found.clear()              # probed here, whichever test probed first
+    names = ("kn", "ks", "refLength", "E", "normalForce", "shearForce")
+    read = lambda p: [getattr(p, k) for k in names[:4]] + [
+        tuple(getattr(p, k)) for k in names[4:]] + [history_values(p)]
+    before = [read(p) for p in phys]
+    fields = Fields(phys, names)
+    for p, b in zip(phys, before):
+        assert read(p)[:6] == b[:6] and same_bits(read(p)[6], b[6])
+    assert same_bits(fields.read("kn"), [p.kn for p in phys])
+    assert same_bits(fields.read("shearForce"), [tuple(p.shearForce) for p in phys])
+    fields.write(refLength=fields.read("refLength") * 1.5, normalForce=-fields.read("normalForce"))
+    assert same_bits([p.refLength for p in phys], [1.5 * b[2] for b in before])
+    assert same_bits([tuple(p.normalForce) for p in phys], [[-v for v in b[4]] for b in before])
 
 
 def test_affine_shear_strain_of_links():

@@ -1,5 +1,5 @@
 """YADE's C++ memory, read and written directly by numpy: the body states (pos, vel, angVel,
-ori) and the CPM links' damage history. The only module that does so; it refuses a YADE
+ori), the CPM links' damage history and named fields of their physics (Fields). The only module that does so; it refuses a YADE
 version it was not verified on (VERIFIED), and every view is verified bit for bit against
 what YADE's own API reads before it is used.
 
@@ -292,3 +292,98 @@ def _locate(objects, values, width, sample, field, known=None):
     if whole:
         _found[field] = hits[0]
     return hits[0]
+
+
+# --- named fields of one class's objects (CpmPhys), read and written in bulk ------------------
+class Fields:
+    """Named fields (doubles, or Vector3r as 3) of C++ objects of one class (their wrappers,
+    kept so the objects outlive the view), read and written by one numpy gather/scatter each.
+    The offsets are found once per class and process by probing one object (distinct values
+    written through its API, found in its memory, the object restored: field_offsets), then
+    verified bit for bit against the API on up to SAMPLE of the objects at every use.
+    CheckpointError if they cannot be. Needs at least one object."""
+    SAMPLE = 64
+
+    def __init__(self, objects, names):
+        check_version(CheckpointError)
+        self.objects, self.names = list(objects), tuple(names)
+        if not self.objects:
+            raise ValueError("Fields of no object")
+        self._offsets = field_offsets(self.objects[0], self.names)
+        addresses = [state_address(o) for o in self.objects]
+        if None in addresses:
+            raise CheckpointError("cannot locate a YADE object in memory: unexpected "
+                                  "boost.python layout")
+        addresses = np.array(addresses, np.int64)
+        if (addresses % 8).any():
+            raise CheckpointError("a YADE object is not 8-byte aligned in memory")
+        base = int(addresses.min())
+        span = int(addresses.max() - base) // 8 + _SEARCH
+        self._rows = (addresses - base) // 8
+        self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
+        rows = np.arange(0, len(self.objects), max(1, -(-len(self.objects) // self.SAMPLE)))
+        for name in self.names:
+            api = np.array([_api_value(self.objects[r], name) for r in rows], float)
+            if not same_bits(self.read(name)[rows].reshape(api.shape), api):
+                raise CheckpointError(f"the field {name} is not where it was found in memory")
+
+    def _index(self, name):
+        offset, width = self._offsets[name]
+        return self._rows[:, None] + offset + np.arange(width)
+
+    def read(self, name):
+        """(n,) or (n, 3) values of the field `name` of every object."""
+        out = self._view[self._index(name)]
+        return out[:, 0] if self._offsets[name][1] == 1 else out
+
+    def write(self, **values):
+        """Write each field name=array ((n,) or (n, 3)) into every object."""
+        for name, v in values.items():
+            index = self._index(name)
+            self._view[index] = np.asarray(v, float).reshape(index.shape)
+
+
+_field_found = {}   # (class name, field) -> (offset, width), once probed in this process
+
+
+def _api_value(obj, name):
+    v = getattr(obj, name)
+    return (v,) if isinstance(v, float) else (v[0], v[1], v[2])
+
+
+def field_offsets(obj, names):
+    """{name: (offset in doubles, width)} of the fields `names` inside the C++ object of the
+    wrapper `obj`: distinct exact binary fractions are written to the fields through the
+    API, looked for in the object's first _SEARCH doubles (each must be found once) and the
+    fields restored."""
+    kind = type(obj).__name__
+    missing = [n for n in names if (kind, n) not in _field_found]
+    if missing:
+        address = state_address(obj)
+        if address is None:
+            raise CheckpointError("cannot locate a YADE object in memory: unexpected "
+                                  "boost.python layout")
+        # a Vector3r attribute is a view of the object's memory: saved as its values
+        kinds = {n: type(getattr(obj, n)) for n in missing}
+        saved = {n: _api_value(obj, n) for n in missing}
+        as_api = lambda n, values: float(values[0]) if kinds[n] is float else \
+            kinds[n](*[float(v) for v in values])
+        probes, k = {}, 0
+        try:
+            for n in missing:
+                probes[n] = 1000.0 + (k + np.arange(len(saved[n]))) / 16.0
+                k += len(saved[n])
+                setattr(obj, n, as_api(n, probes[n]))
+            memory = np.ctypeslib.as_array(
+                (ctypes.c_double * _SEARCH).from_address(address)).copy()
+        finally:
+            for n, values in saved.items():
+                setattr(obj, n, as_api(n, values))
+        for n, probe in probes.items():
+            hits = [o for o in range(_SEARCH - len(probe) + 1)
+                    if same_bits(memory[o:o + len(probe)], probe)]
+            if len(hits) != 1:
+                raise CheckpointError(f"{kind}.{n} found {len(hits)} times in memory: cannot "
+                                      f"read it in bulk")
+            _field_found[kind, n] = (hits[0], len(probe))
+    return {n: _field_found[kind, n] for n in names}

@@ -6,6 +6,7 @@ import numpy as np
 
 from yade_side import import_yade
 from yade_side.affine import link_stiffness
+from yade_side.memory import Fields
 
 # Cohesive links are made between spheres up to this factor of the sum of radii apart
 # (first step only), so that a random dense packing gets ~11–12 links per sphere.
@@ -148,29 +149,37 @@ def add_cohesive_links(pairs, radii, ref_length, young, poisson, weight=1.0):
             f.cohesiveThresholdIter = t
     E = 0.5 * (young[:, 0] + young[:, 1])
     G = 0.5 * (poisson[:, 0] + poisson[:, 1]) * E
+    if not made:
+        return NewLinks([], np.empty((0, 2), int), [])
     section, kn, ks = (weight * v for v in
                        link_stiffness(radii[:, 0], radii[:, 1], ref_length, E, G))
-    ref_pd = radii[:, 0] + radii[:, 1] - ref_length
-    phys, ends = [], []
-    for i, *values in zip(made, E.tolist(), G.tolist(), ref_length.tolist(), section.tolist(),
-                          ref_pd.tolist(), kn.tolist(), ks.tolist()):
-        p = i.phys
-        i.iterMadeReal = O.iter - 1
-        p.E, p.G, p.refLength, p.crossSection, p.refPD, p.kn, p.ks = values
-        p.epsFracture = p.epsCrackOnset * p.relDuctility
-        phys.append(p)
+    phys, ends, made_real = [], [], O.iter - 1
+    for i in made:
+        i.iterMadeReal = made_real
+        phys.append(i.phys)
         ends.append((i.id1, i.id2))
-    return NewLinks(made, np.array(ends, int).reshape(-1, 2), phys)
+    fields = Fields(phys, LINK_FIELDS)
+    fields.write(E=E, G=G, refLength=ref_length, crossSection=section,
+                 refPD=radii[:, 0] + radii[:, 1] - ref_length, kn=kn, ks=ks,
+                 epsFracture=fields.read("epsCrackOnset") * fields.read("relDuctility"))
+    return NewLinks(made, np.array(ends, int), phys, fields)
+
+
+# the CpmPhys fields add_cohesive_links sets and the links' energy reads (yade_side.transfer)
+LINK_FIELDS = ("E", "G", "refLength", "crossSection", "refPD", "kn", "ks", "epsFracture",
+               "epsCrackOnset", "relDuctility", "normalForce", "shearForce")
 
 
 @dataclass
 class NewLinks:
     """Links made in a running scene (add_cohesive_links): YADE's interactions, their ids
-    (m, 2) as YADE holds them (id1, id2: the normal's direction) and their CpmPhys, read once
-    (each Python access to an interaction costs microseconds)."""
+    (m, 2) as YADE holds them (id1, id2: the normal's direction), their CpmPhys and its
+    LINK_FIELDS in memory (yade_side.memory.Fields), read once: each Python access to an
+    interaction costs microseconds."""
     interactions: list
     ids: np.ndarray
     phys: list
+    fields: object = None
 
     def __len__(self):
         return len(self.interactions)

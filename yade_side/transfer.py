@@ -12,16 +12,23 @@ EPS_T = slice(16, 19)
 SAMPLE = 256   # links on which the history's place in memory is verified
 
 
-def link_energies(links, phys=None):
+def link_energies(links, fields=None):
     """(normal, shear) elastic energy of each of the interactions `links` (YADE's), (m,) each,
     as the law's elasticEnergy() counts it: ½ |Fn|²/kn and ½ |Fs|²/ks with the forces of the
-    last step; a link broken since it was made holds 0. `phys`: their CpmPhys, if read."""
-    phys = (i.phys for i in links) if phys is None else phys
-    parts = [(0.5 * p.normalForce.squaredNorm() / p.kn,
-              0.5 * p.shearForce.squaredNorm() / p.ks) if i.isReal else (0.0, 0.0)
-             for i, p in zip(links, phys)]
-    return tuple(np.array(column, float) for column in zip(*parts)) if parts else \
-        (np.zeros(0), np.zeros(0))
+    last step; a link broken since it was made holds 0. `fields`: their CpmPhys's
+    scene.LINK_FIELDS, if found already (memory.Fields)."""
+    from yade_side.memory import Fields
+    from yade_side.scene import LINK_FIELDS
+    real = np.array([i.isReal for i in links], bool)
+    normal, shear = np.zeros(len(links)), np.zeros(len(links))
+    if real.any():
+        rows = real                     # of `fields`: all the links, or the real ones
+        if fields is None:
+            fields, rows = Fields([i.phys for i, r in zip(links, real) if r], LINK_FIELDS), ...
+        square = lambda name: (fields.read(name)[rows] ** 2).sum(axis=1)
+        normal[real] = 0.5 * square("normalForce") / fields.read("kn")[rows]
+        shear[real] = 0.5 * square("shearForce") / fields.read("ks")[rows]
+    return normal, shear
 
 
 def lever_arms_are_radii():

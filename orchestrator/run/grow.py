@@ -260,6 +260,11 @@ class GrowingModel:
 
     def __init__(self, build, grid, zone, limit, tensile_strength, levels, tol, budget=None,
                  log=print, shear=False, resumed=None, last_step=None):
+        from yade_side.memory import VERIFIED, verified, yade_version
+        if not verified():
+            raise ValueError(f"a zone that grows during the run writes its new links in YADE's "
+                             f"memory, whose layout was verified on YADE {', '.join(VERIFIED)} "
+                             f"only, not on this YADE {yade_version()}")
         t0 = perf_counter()
         self.__dict__.update(build=build, cell_grid=grid, limit=limit, ft=tensile_strength,
                              levels=levels, tol=tol, budget=budget, log=log, shear=shear,
@@ -344,7 +349,7 @@ class GrowingModel:
         after = new.energy_parts()
         made = new.parts.new_links
         seam = np.isin(made.ids, old.spheres.ids).any(axis=1)
-        normal, shear = link_energies(made.interactions, made.phys)
+        normal, shear = link_energies(made.interactions, made.fields)
         total = lambda values: sum(values.tolist(), 0.0)
         energy_before, energy_after = sum(before.values()), sum(after.values())
         self.watch = Watch(new, grid, self.ft, self.levels)
