@@ -95,6 +95,7 @@ class Parts:
     ref_pos: np.ndarray = None  # reference positions of `ids` where they are not read at build
     new_links: object = None   # the links a zone grown in place made (scene.NewLinks)
     initial_links: np.ndarray = None   # (m, 2) ids of the initial links, where not read
+    spheres: object = None     # the BodySet of `ids` at `ref_pos`, where the builder made it
 
 
 def assemble(d, grown_from=None):
@@ -197,14 +198,15 @@ def assemble_grown(d, old):
     made = add_cohesive_links(ids[pairs], radius[pairs],
                               np.linalg.norm(ref_pos[pairs[:, 1]] - ref_pos[pairs[:, 0]], axis=1),
                               young[pairs], poisson[pairs], 0.5 * beta[pairs].sum(axis=1))
-    bridge = BodySet(ids[index], ref_pos=ref_pos[index])
+    spheres = BodySet.joined(old.spheres, added, ref_pos)     # masses read once weighted
+    bridge = spheres.subset(index, ref_pos[index])
     relaxation, notes = _relaxation(d, bridge, dt, critical)
     coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation)
     stepper = CoupledStepper(p.O.step, bridge, fe, coupling)
     inside = d.scene.attach(stepper.couple)
     return Parts(p.O, ids, fe, d.bridging, beta, index, np.empty(0, int), stepper, dt, critical,
                  relaxation, notes, inside, False, consistent, None, d.scene, unweighted,
-                 ref_pos, made, np.vstack([old.damage.links, made.ids]))
+                 ref_pos, made, np.vstack([old.damage.links, made.ids]), spheres)
 
 
 class Model:
@@ -220,7 +222,7 @@ class Model:
         self.O, self.fe, self.bridging, self.stepper = p.O, p.fe, p.bridging, p.stepper
         self.dt, self.critical, self.relaxation = p.dt, p.critical, p.relaxation
         self.bridge_index, self.notes = p.bridge_index, list(p.notes)
-        self.spheres = BodySet(p.ids, ref_pos=p.ref_pos)
+        self.spheres = BodySet(p.ids, ref_pos=p.ref_pos) if p.spheres is None else p.spheres
         self.bridge = None if p.stepper is None else p.stepper.bridge
         self.in_de_zone = (np.zeros(len(p.ids), bool) if p.bridging is None
                            else p.bridging.zone.depth(self.spheres.ref_pos) < 0)

@@ -60,6 +60,38 @@ def test_bulk_state_equals_per_body_state(direct):
         assert np.array_equal([s.ori[k] for k in range(4)], bs.ori[j])
 
 
+@pytest.mark.parametrize("direct", [True, False])
+def test_joined_and_subset_sets_are_the_sets_of_their_bodies(direct):
+    """BodySet.joined and .subset (a zone grown in place) take their sets' places in memory:
+    they read and write what a set made afresh of the same bodies does, bit for bit, bodies
+    appended to the scene after the first set was made, masses as they are now."""
+    from yade import utils
+    ids = cluster(n=6)
+    cpm_engines()
+    first = BodySet(ids[:4], direct=direct)
+    more = list(O.bodies.append([utils.sphere((0.0, 0.05 * k, 0.0), 0.01,
+                                              material=O.bodies[0].material) for k in (1, 2)]))
+    second = BodySet(ids[4:] + more, direct=direct)
+    O.bodies[ids[1]].state.mass *= 0.5
+    joined = BodySet.joined(first, second)
+    rows = [5, 0, 7, 2]
+    subset = joined.subset(rows)
+    every = ids + more
+    fresh, fresh_rows = BodySet(every, direct=direct), BodySet([every[r] for r in rows], direct=direct)
+    assert joined.direct == subset.direct == direct
+    rng = np.random.default_rng(5)
+    for a, b in ((joined, fresh), (subset, fresh_rows)):
+        assert np.array_equal(a.ids, b.ids) and np.array_equal(a.radius, b.radius)
+        assert np.array_equal(a.mass, b.mass) and np.array_equal(a.inertia, b.inertia)
+        a.state[:] = rng.normal(size=a.state.shape)
+        a.write()
+        assert np.array_equal(b.read().view(np.int64), a.state.view(np.int64))
+        b.state[:] = rng.normal(size=b.state.shape)
+        b.write()
+        assert np.array_equal(a.read().view(np.int64), b.state.view(np.int64))
+    assert joined.mass[1] == 0.5 * first.mass[1]
+
+
 def test_direct_and_api_paths_agree_bit_for_bit():
     ids = cluster(n=6)
     cpm_engines()

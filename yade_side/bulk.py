@@ -30,7 +30,7 @@ class BodySet:
     the small-rotation vector since then: θ(t+Δt) = θ(t) + Δt ω(t+Δt/2), the central-difference
     update of the rotation that NewtonIntegrator applies to the orientation."""
 
-    def __init__(self, ids, direct=True, ref_pos=None):
+    def __init__(self, ids, direct=True, ref_pos=None, _known=None):
         yade = import_yade()
         self._O = yade.Omega()
         self._subdomain = yade.wrapper.Subdomain()
@@ -39,10 +39,14 @@ class BodySet:
         bodies = [self._O.bodies[i] for i in self._id_list]
         self.mass = np.array([b.state.mass for b in bodies])
         self.inertia = np.array([b.state.inertia[0] for b in bodies])
-        self.radius = np.array([b.shape.radius for b in bodies])
         self.state = np.empty((len(self.ids), 13))
         self._direct = direct
-        self.reattach()
+        if _known is None:
+            self.radius = np.array([b.shape.radius for b in bodies])
+            self.reattach()
+        else:                           # (joined, subset)
+            self.radius, self._memory = _known
+            self._orphaned = False
         self.read()
         self.ref_pos = (self.state[:, _POS].copy() if ref_pos is None
                         else np.array(ref_pos, float).reshape(-1, 3))
@@ -61,6 +65,25 @@ class BodySet:
             self._orphaned = True
         elif self._direct:
             self._memory = locate(self._O, self._id_list, self._api_get, self._api_put)
+
+    @classmethod
+    def joined(cls, first, second, ref_pos=None):
+        """The set of the bodies of `first` then of `second`, sets of the current scene:
+        masses and inertias read now (weights may have changed), radii and places in YADE's
+        memory theirs (verified when they were found; a body set finds them afresh after a
+        scene is loaded)."""
+        memory = (first._memory.joined(second._memory)
+                  if first._memory is not None and second._memory is not None else None)
+        if memory is None and first._direct and len(second):
+            return cls(np.concatenate([first.ids, second.ids]), ref_pos=ref_pos)
+        return cls(np.concatenate([first.ids, second.ids]), first._direct, ref_pos,
+                   (np.concatenate([first.radius, second.radius]), memory))
+
+    def subset(self, rows, ref_pos=None):
+        """The set of the bodies `rows` of this one (as joined: masses read now)."""
+        rows = np.asarray(rows, int)
+        memory = self._memory.taken(rows) if self._memory is not None and len(rows) else None
+        return type(self)(self.ids[rows], self._direct, ref_pos, (self.radius[rows], memory))
 
     def __len__(self):
         return len(self.ids)

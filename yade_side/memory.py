@@ -61,13 +61,31 @@ class StateMemory:
     would otherwise read and write States no longer simulated."""
     FULL_CHECK = 64
 
-    def __init__(self, omega, ids, wrappers, index, base, span):
+    def __init__(self, omega, ids, wrappers, addresses, offsets):
         self._omega, self._ids = omega, list(ids)
-        self._wrappers = wrappers  # keep the C++ States alive: their addresses stay unique
-        self._addresses = [state_address(w) for w in wrappers]
-        self._index = index        # (n, 13) offsets in doubles from `base`
+        self._wrappers = list(wrappers)  # keep the C++ States alive: their addresses stay unique
+        self._addresses, self._offsets = list(addresses), offsets
+        a = np.array(self._addresses, dtype=np.int64)
+        base = int(a.min())
+        span = int(a.max() - base) // 8 + _STATE_SEARCH
+        self._index = (a - base)[:, None] // 8 + offsets[None, :]  # (n, 13), doubles from base
         self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
         self._calls = 0
+
+    def joined(self, other):
+        """The view of this memory's bodies then `other`'s (of the same scene), as verified."""
+        if not np.array_equal(self._offsets, other._offsets):
+            raise ValueError("two State layouts in one scene")
+        return StateMemory(self._omega, self._ids + other._ids,
+                           self._wrappers + other._wrappers,
+                           self._addresses + other._addresses, self._offsets)
+
+    def taken(self, rows):
+        """The view of the bodies `rows` of this one."""
+        rows = np.asarray(rows, int).tolist()
+        pick = lambda values: [values[r] for r in rows]
+        return StateMemory(self._omega, pick(self._ids), pick(self._wrappers),
+                           pick(self._addresses), self._offsets)
 
     def _check(self):
         self._calls += 1
@@ -113,11 +131,7 @@ def locate(omega, ids, get, put):
     offsets = _field_offsets(addresses[0], ids[0], get, put)
     if offsets is None:
         return None
-    addresses = np.array(addresses, dtype=np.int64)
-    base = int(addresses.min())
-    span = int(addresses.max() - base) // 8 + _STATE_SEARCH
-    index = (addresses - base)[:, None] // 8 + offsets[None, :]
-    memory = StateMemory(omega, ids, wrappers, index, base, span)
+    memory = StateMemory(omega, ids, wrappers, addresses, offsets)
     expected = np.array(get(ids), float).reshape(-1, 13)
     got = np.empty_like(expected)
     memory.read(got)
