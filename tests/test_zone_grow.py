@@ -238,8 +238,8 @@ def test_history_and_normal_blocks_read_and_write_what_yades_python_view_reads()
     is read back so."""
     from yade_side import import_yade
     from yade_side.material import ConcreteParams, cpm_material
-    from yade_side.memory import (NORMAL_WIDTH, Blocks, HistoryBlocks, find_normal_offset,
-                                   find_offset, history_values, same_bits)
+    from yade_side.memory import (NORMAL_WIDTH, WIDTH, Blocks, HistoryBlocks,
+                                   find_normal_offset, find_offset, history_values, same_bits)
     from yade_side.packing import add_spheres
     from yade_side.scene import cpm_engines, create_cohesive_links, reset_scene
     yade = import_yade()
@@ -286,6 +286,10 @@ def test_history_and_normal_blocks_read_and_write_what_yades_python_view_reads()
     fields.write(refLength=fields.read("refLength") * 1.5, normalForce=-fields.read("normalForce"))
     assert same_bits([p.refLength for p in phys], [1.5 * b[2] for b in before])
     assert same_bits([tuple(p.normalForce) for p in phys], [[-v for v in b[4]] for b in before])
+    history = find_offset(links), WIDTH                  # a block found elsewhere, likewise
+    assert same_bits(fields.read_block(*history), [history_values(p) for p in phys])
+    fields.write_block(*history, blocks.read() * 2)
+    assert same_bits([history_values(p) for p in phys], values * 2)
 
 
 def test_affine_shear_strain_of_links():

@@ -1,7 +1,7 @@
 """YADE's C++ memory, read and written directly by numpy: the body states (pos, vel, angVel,
-ori), the CPM links' damage history and named fields of their physics (Fields). The only module that does so; it refuses a YADE
-version it was not verified on (VERIFIED), and every view is verified bit for bit against
-what YADE's own API reads before it is used.
+ori), the CPM links' damage history and named fields of their physics (Fields). The only
+module that does so; it refuses a YADE version it was not verified on (VERIFIED), and every
+view is verified bit for bit against what YADE's own API reads before it is used.
 
 Body states. 
 YADE's `Subdomain.get/setStateValuesFromIds` pass every value through a Python float: with
@@ -63,7 +63,7 @@ class StateMemory:
 
     def __init__(self, omega, ids, wrappers, addresses, offsets):
         self._omega, self._ids = omega, list(ids)
-        self._wrappers = list(wrappers)  # keep the C++ States alive: their addresses stay unique
+        self._wrappers = list(wrappers)   # keep the C++ States alive: addresses stay unique
         self._addresses, self._offsets = list(addresses), offsets
         a = np.array(self._addresses, dtype=np.int64)
         base = int(a.min())
@@ -341,20 +341,28 @@ class Fields:
             if not same_bits(self.read(name)[rows].reshape(api.shape), api):
                 raise CheckpointError(f"the field {name} is not where it was found in memory")
 
-    def _index(self, name):
-        offset, width = self._offsets[name]
+    def _index(self, offset, width):
         return self._rows[:, None] + offset + np.arange(width)
 
     def read(self, name):
         """(n,) or (n, 3) values of the field `name` of every object."""
-        out = self._view[self._index(name)]
-        return out[:, 0] if self._offsets[name][1] == 1 else out
+        offset, width = self._offsets[name]
+        out = self.read_block(offset, width)
+        return out[:, 0] if width == 1 else out
 
     def write(self, **values):
         """Write each field name=array ((n,) or (n, 3)) into every object."""
         for name, v in values.items():
-            index = self._index(name)
-            self._view[index] = np.asarray(v, float).reshape(index.shape)
+            self.write_block(*self._offsets[name], v)
+
+    def read_block(self, offset, width):
+        """(n, width) doubles at `offset` (found elsewhere: e.g. history_offset) of every
+        object, offset + width within _SEARCH."""
+        return self._view[self._index(offset, width)]
+
+    def write_block(self, offset, width, values):
+        index = self._index(offset, width)
+        self._view[index] = np.asarray(values, float).reshape(index.shape)
 
 
 _field_found = {}   # (class name, field) -> (offset, width), once probed in this process

@@ -61,7 +61,7 @@ def carry(old, new, tol, shear=False):
     are old's. Returns the counts of what was carried and the links' largest stretch of
     their reference length (fe_stretch)."""
     from yade_side.bulk import rotation_quaternion
-    from yade_side.memory import HistoryBlocks, history_offset
+    from yade_side.memory import WIDTH, history_offset
     from yade_side.transfer import EPS_N_PL, EPS_T, SAMPLE, lever_arms_are_radii
     old_fe, fe, s = old.fe, new.fe, new.spheres
     ref, radius = s.ref_pos, s.radius
@@ -91,8 +91,8 @@ def carry(old, new, tol, shear=False):
         stretch = fe_stretch(made.phys, ends, on_field, state[:, 0:3],
                              np.isin(ends, kept) | (ends >= len(old.spheres)))
     if made and (old_fe.carries_damage or shear):
-        blocks = HistoryBlocks(made.phys, history_offset(made.phys, SAMPLE))
-        values = blocks.read()
+        history = history_offset(made.phys, SAMPLE), WIDTH
+        values = made.fields.read_block(*history)
         axis = ref[ends[:, 1]] - ref[ends[:, 0]]
         length = np.linalg.norm(axis, axis=1)
         normal = axis / length[:, None]
@@ -102,7 +102,7 @@ def carry(old, new, tol, shear=False):
             lever = radius[ends].sum(axis=1) if lever_arms_are_radii() else length
             values[:, EPS_T] = affine_shear_strain(old_fe.gradient_at(at), normal,
                                                    lever / length)
-        blocks.write(values)
+        made.fields.write_block(*history, values)
     nodes = match(old_fe.nodes, fe.nodes, tol)
     cells = match(_centres(old_fe), _centres(fe), tol)
     if (nodes < 0).any() or (cells < 0).any():
@@ -130,8 +130,9 @@ def fe_stretch(phys, ends, on_field, now, known):
     field: its reference length × |Δ now| / |Δ on_field| (refPD, kn and ks with it, as the
     law sets them from the reference length). The gap carried on (continued_gaps) keeps the
     motion continuous at the old DE's edge; as a stress-free offset it adds no strain energy.
-    phys: the links' CpmPhys; ends (m, 2): rows of `now` and `on_field` ((n, 3) positions); known:
-    (m, 2) mask of the ends whose field position is known (a link with another end is left).
+    phys: the links' CpmPhys; ends (m, 2): rows of `now` and `on_field` ((n, 3) positions);
+    known: (m, 2) mask of the ends whose field position is known (a link with another end is
+    left).
     Returns the largest |scale − 1|."""
     both = known.all(axis=1)
     d_field = np.linalg.norm(on_field[ends[:, 1]] - on_field[ends[:, 0]], axis=1)
