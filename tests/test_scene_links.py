@@ -74,3 +74,27 @@ def test_weighted_spheres_weight_their_links_and_later_contacts_by_the_mean_beta
     assert not weighted.isCohesive and not plain.isCohesive
     assert weighted.kn == pytest.approx(plain.kn * 0.4, rel=1e-15)
     assert O.interactions[0, 1].phys.kn == link_kn * 0.4
+
+
+def test_a_reweighted_sphere_keeps_its_own_material_copy():
+    """weight_contacts, for spheres that carried weights (a zone grown in place): a sphere
+    weighted anew gets its own copy of its material, one already weighted has its copy
+    reweighted in place (no material added), young × β / β_before either way; the shared
+    material of the unweighted spheres is left as it was."""
+    from yade import utils
+    from yade_side.weighting import OWN_COPY, weight_contacts
+    reset_scene()
+    mat = O.materials.append(yade.wrapper.CpmMat(young=30e9, poisson=0.2, density=4000))
+    ids = np.array(O.bodies.append([utils.sphere((3 * R * k, 0, 0), R, material=mat)
+                                    for k in range(4)]))
+    weight_contacts(ids, np.array([0.3, 0.7, 1.0, 1.0]))
+    copies = [O.bodies[int(i)].material for i in ids[:2]]
+    assert [m.label for m in copies] == [OWN_COPY] * 2 and copies[0].id != copies[1].id
+    assert [m.young for m in copies] == [30e9 * 0.3, 30e9 * 0.7]
+    count = len(O.materials)
+    before, beta = np.array([0.3, 0.7, 1.0, 1.0]), np.array([1.0, 0.5, 0.4, 1.0])
+    weight_contacts(ids, beta, before)
+    young = [O.bodies[int(i)].material.young for i in ids]
+    assert young == [30e9 * 0.3 * (1.0 / 0.3), 30e9 * 0.7 * (0.5 / 0.7), 30e9 * 0.4, 30e9]
+    assert [O.bodies[int(i)].material.id for i in ids[:2]] == [m.id for m in copies]
+    assert len(O.materials) == count + 1 and O.materials[mat].young == 30e9

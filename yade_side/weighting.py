@@ -58,22 +58,32 @@ def weight_links(ids, beta, before=None):
     weight_contacts(ids, beta, before)
 
 
+# the label of a sphere's own copy of its material (weight_contacts): no other body holds it
+OWN_COPY = "beta-weighted"
+
+
 def weight_contacts(ids, beta, before=None):
     """The contacts made from now on weighted like the links: each sphere `ids[j]` with
     beta[j] < 1 gets its own copy of its material with young × beta[j] (with `before`, the
-    weights its material carries now: young × beta[j] / before[j] where they differ); YADE's
-    Ip2 functor takes the mean of the two materials' young, so a new contact's stiffness is ×
-    the mean β of its spheres. After the links exist (weight_links calls it): a material read
-    when the links are made would weight them twice. Unweighted, a contact closing on a band
-    sphere of mass β m had 1/√β times its frequency: the step's margin gone at small β (a
-    medium slab at 40 m/s blew up so at 0.3 × the critical step, a broken band link closing
-    again)."""
+    weights its material carries now: young × beta[j] / before[j] where they differ, its own
+    copy reweighted in place: a zone that grows adds copies only for the spheres it weights
+    anew); YADE's Ip2 functor takes the mean of the two materials' young, so a new contact's
+    stiffness is × the mean β of its spheres. After the links exist (weight_links calls it):
+    a material read when the links are made would weight them twice. Unweighted, a contact
+    closing on a band sphere of mass β m had 1/√β times its frequency: the step's margin gone
+    at small β (a medium slab at 40 m/s blew up so at 0.3 × the critical step, a broken band
+    link closing again)."""
     yade = import_yade()
     O = yade.Omega()
     beta = np.asarray(beta, float)
     before = np.ones(len(beta)) if before is None else np.asarray(before, float)
     for j in np.flatnonzero(beta != before):   # set-up only
         body = O.bodies[int(ids[j])]
-        values = {k: v for k, v in body.material.dict().items() if k not in ("id", "label")}
-        values["young"] *= float(beta[j] / before[j])
-        body.material = O.materials[O.materials.append(type(body.material)(**values))]
+        material, factor = body.material, float(beta[j] / before[j])
+        if material.label == OWN_COPY:
+            material.young *= factor
+            continue
+        values = {k: v for k, v in material.dict().items() if k not in ("id", "label")}
+        values["young"] *= factor
+        body.material = O.materials[O.materials.append(type(material)(label=OWN_COPY,
+                                                                      **values))]
