@@ -190,7 +190,7 @@ def resumed_growth(out, inputs, grid, start, limit):
 # What a conversion (the grown model's build and the state carried into it) costs, as the
 # budget counts it, in sphere steps: a fixed part, CONVERSION_STEPS steps of the first grown
 # zone (the FE part and the band made anew are as large at every conversion; the first
-# conversion at each scale cost 45-56 steps of its zone, `make bench`, rounded up; 38-42
+# conversion at each scale cost 45-56 steps of its zone, `make bench`, rounded up; 35-46
 # since, kept so that the trip levels' table, docs/auto-zone.md, stands), plus
 # CONVERSION_GROWTH steps of the zone it makes (what grows with the zone: its spheres' weights,
 # sets and depths; 1.6 steps at medium scale and 5.9 at paper scale in the runs' conversions,
