@@ -22,9 +22,11 @@ def link_energies(links, fields=None):
     real = np.array([i.isReal for i in links], bool)
     normal, shear = np.zeros(len(links)), np.zeros(len(links))
     if real.any():
-        rows = real                     # of `fields`: all the links, or the real ones
-        if fields is None:
-            fields, rows = Fields([i.phys for i, r in zip(links, real) if r], LINK_FIELDS), ...
+        if fields is None:              # of the real links
+            fields, rows = Fields([i.phys for i, r in zip(links, real) if r], LINK_FIELDS), \
+                slice(None)
+        else:                           # of every link
+            rows = real
         square = lambda name: (fields.read(name)[rows] ** 2).sum(axis=1)
         normal[real] = 0.5 * square("normalForce") / fields.read("kn")[rows]
         shear[real] = 0.5 * square("shearForce") / fields.read("ks")[rows]
