@@ -197,20 +197,8 @@ class Blocks:
 
     def __init__(self, objects, offset, width):
         self._objects = list(objects)
-        addresses = np.array([state_address(p) for p in self._objects], dtype=object)
-        if any(a is None for a in addresses):
-            raise CheckpointError("cannot locate a YADE object in memory: unexpected "
-                                  "boost.python layout")
-        addresses = addresses.astype(np.int64) + 8 * offset
-        if (addresses % 8).any():
-            raise CheckpointError("a YADE object is not 8-byte aligned in memory")
-        self._index = np.empty((0, width), np.int64)
-        self._view = np.empty(0)
-        if len(addresses):
-            base = int(addresses.min())
-            span = int(addresses.max() - base) // 8 + width
-            self._index = (addresses - base)[:, None] // 8 + np.arange(width)
-            self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
+        rows, self._view = _object_view(self._objects, offset + width)
+        self._index = rows[:, None] + offset + np.arange(width)
 
     def read(self):
         return self._view[self._index]
@@ -218,6 +206,24 @@ class Blocks:
     def write(self, values, rows=None):
         index = self._index if rows is None else self._index[rows]
         self._view[index] = values
+
+
+def _object_view(objects, extent):
+    """(rows, view): a view of doubles from the lowest address of the C++ objects (their
+    wrappers) to `extent` doubles past the highest, and each object's first double in it."""
+    addresses = [state_address(o) for o in objects]
+    if None in addresses:
+        raise CheckpointError("cannot locate a YADE object in memory: unexpected "
+                              "boost.python layout")
+    addresses = np.array(addresses, np.int64)
+    if (addresses % 8).any():
+        raise CheckpointError("a YADE object is not 8-byte aligned in memory")
+    if not len(addresses):
+        return addresses, np.empty(0)
+    base = int(addresses.min())
+    span = int(addresses.max() - base) // 8 + extent
+    return (addresses - base) // 8, np.ctypeslib.as_array(
+        (ctypes.c_double * span).from_address(base))
 
 
 class HistoryBlocks(Blocks):
@@ -324,17 +330,7 @@ class Fields:
         if not self.objects:
             raise ValueError("Fields of no object")
         self._offsets = field_offsets(self.objects[0], self.names)
-        addresses = [state_address(o) for o in self.objects]
-        if None in addresses:
-            raise CheckpointError("cannot locate a YADE object in memory: unexpected "
-                                  "boost.python layout")
-        addresses = np.array(addresses, np.int64)
-        if (addresses % 8).any():
-            raise CheckpointError("a YADE object is not 8-byte aligned in memory")
-        base = int(addresses.min())
-        span = int(addresses.max() - base) // 8 + _SEARCH
-        self._rows = (addresses - base) // 8
-        self._view = np.ctypeslib.as_array((ctypes.c_double * span).from_address(base))
+        self._rows, self._view = _object_view(self.objects, _SEARCH)
         rows = np.arange(0, len(self.objects), max(1, -(-len(self.objects) // self.SAMPLE)))
         for name in self.names:
             api = np.array([_api_value(self.objects[r], name) for r in rows], float)
