@@ -20,6 +20,8 @@ import ctypes
 
 import numpy as np
 
+from yade_side import import_yade
+
 # YADE versions whose memory layouts were verified (tests/test_yade_side.py, test_checkpoint.py)
 VERIFIED = ("2023.02a",)
 
@@ -39,8 +41,7 @@ class CheckpointError(RuntimeError):
 
 
 def yade_version():
-    from yade import config
-    return config.version
+    return import_yade().config.version
 
 
 def verified():
