@@ -37,3 +37,17 @@ def test_ring_ratios_pair_cells_by_centre_and_skip_cold_ones():
         n, p5, p50, p95, top = out[k]
         assert n == np.count_nonzero(hot & (ring == k))
         assert np.allclose([p5, p50, p95, top], r, rtol=1e-12)
+
+
+def test_the_cells_read_lie_outside_the_band_in_ring_order():
+    """The small slab's box zone, past the impact's first contact (2 mm at 40 m/s: 18 steps):
+    every cell the trip reads is past the band's layers (ring > layers), the nearest next to
+    the band, and each has a σ1 peak, some above zero."""
+    from dataclasses import replace
+    from cases.slab.band_stress import box_spec, peak_stress
+    from cases.slab.spec import SlabSpec
+    spec = box_spec(replace(SlabSpec(scale="small", impactor_speed=40.0), steps=30), 0.5)
+    centres, peak, ring = peak_stress(spec, every=10)
+    assert ring.min() == spec.layers + 1
+    assert np.all(peak >= 0) and peak.max() > 0
+    assert len(centres) == len(peak) == len(ring)

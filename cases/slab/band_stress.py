@@ -17,7 +17,7 @@ from dataclasses import replace
 import numpy as np
 from scipy.ndimage import distance_transform_cdt
 
-from cases.slab.geometry import cell_grid
+from cases.slab.geometry import cell_grid, slab_grid
 from cases.slab.spec import SlabSpec
 
 KEY_DIGITS = 6   # cell centres are matched between the two meshes of one grid to 1 µm
@@ -33,18 +33,25 @@ def cell_rings(grid, zone_mask, centres):
     return distance[tuple(index)]
 
 
-def peak_stress(spec, side, steps, every):
-    """Run the coupled slab of `spec` with a fixed box zone of `side` m and an elastic FE:
-    (centres of the cells the trip reads, their peak σ1 over the run in Pa, their ring)."""
+def box_spec(spec, side):
+    """`spec` with a fixed box zone of `side` m and an elastic FE (ValueError if it does not
+    fit)."""
+    spec = replace(spec, zone="box", de_zone=side, fe_material="elastic")
+    slab_grid(spec)
+    return spec
+
+
+def peak_stress(spec, every):
+    """Run the coupled slab of `spec` (box_spec) for its steps: (centres of the cells the trip
+    reads, their peak σ1 over the run in Pa, their ring)."""
     from cases.slab.model import SlabModel
     from orchestrator.run.checks import fe_cells_checked
-    spec = replace(spec, zone="box", de_zone=side, fe_material="elastic", steps=steps)
     m = SlabModel(spec, "coupled")
     fe = m.fe
     centres = fe.nodes[fe.cell_nodes].mean(axis=1)
     read = fe_cells_checked(m)
     peak = np.zeros(len(centres))
-    for n in range(1, steps + 1):
+    for n in range(1, spec.steps + 1):
         m.step()
         if n % every == 0:
             np.maximum(peak, fe.stress().max_principal, out=peak)
@@ -82,11 +89,21 @@ def main(argv=None):
     p.add_argument("--steps", type=int, default=700)
     p.add_argument("--every", type=int, default=10, help="steps between σ1 reads (the trip's)")
     a = p.parse_args(argv)
-    sides = [float(s) for s in a.zones.split(",")]
-    if len(sides) != 2 or not sides[0] < sides[1]:
-        p.error(f"--zones: two box sides, smaller first, got {a.zones!r}")
-    spec = SlabSpec(scale=a.scale, impactor_speed=a.impactor_speed, seed=a.seed)
-    small, large = (peak_stress(spec, s, a.steps, a.every) for s in sides)
+    try:
+        sides = [float(s) for s in a.zones.split(",")]
+    except ValueError:
+        sides = []
+    if len(sides) != 2 or not 0 < sides[0] < sides[1]:
+        p.error(f"--zones: two box sides in m, smaller first, got {a.zones!r}")
+    if a.steps < 1 or a.every < 1:
+        p.error(f"--steps and --every: at least 1, got {a.steps} and {a.every}")
+    try:
+        spec = SlabSpec(scale=a.scale, impactor_speed=a.impactor_speed, seed=a.seed,
+                        steps=a.steps)
+        specs = [box_spec(spec, s) for s in sides]
+    except ValueError as e:
+        p.error(str(e))
+    small, large = (peak_stress(s, a.every) for s in specs)
     ft = spec.tensile_strength
     print(f"{a.scale}, {a.impactor_speed:g} m/s, seed {a.seed}, {a.steps} steps, box zones "
           f"{sides[0]:g} and {sides[1]:g} m; ft {ft / 1e6:.2f} MPa")
