@@ -51,8 +51,8 @@ class TripLevels:
       cell outside the band ≥ damage. Default 0.9: the cell is well into its softening (its
       strength down to 0.62-0.75 ft in uniaxial tension, the crack-band law with the scales'
       Gf). At 0.8 the zone grew past the budget or its limit at medium scale, 20 m/s, where
-      zones that stay smaller are within the scatter; at 0.95 (and at 0.9 with the budget at
-      1) it ended clean at 40 m/s, small scale, and outside;
+      zones that stay smaller are within the scatter; at 0.95 it ended clean at 40 m/s,
+      small and medium scale, and outside (so did 0.9 with the budget at 1, small scale);
     - omega: a link of a bridging sphere with damage ω ≥ omega (a broken link counts as 1).
       Default 1, a broken link: at 0.1 or 0.5 the band's partly damaged links flooded the
       zone to its limit at 10 m/s (with the damaging FE);
