@@ -28,9 +28,7 @@ def cell_rings(grid, zone_mask, centres):
     """The Chebyshev distance, in in-plane cells of `grid` (a CellGrid), of the cells whose
     centres are `centres` from the zone `zone_mask`: 0 inside it, 1 next to it."""
     distance = distance_transform_cdt(~np.asarray(zone_mask, bool), metric="chessboard")
-    index = [np.clip(np.floor((centres[:, a] - grid.p0[a]) / grid.size[a]).astype(int),
-                     0, grid.n[a] - 1) for a in grid.axes]
-    return distance[tuple(index)]
+    return distance[grid.index_of(centres)]
 
 
 def box_spec(spec, side):

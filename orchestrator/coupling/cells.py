@@ -39,15 +39,18 @@ class CellGrid:
     def zone(self, mask):
         return CellZone(*self.boxes(mask), axes=self.axes)
 
-    def cells_of(self, points):
-        """Mask of the cells that hold any of `points` (points on a face count for the cell
-        above; points outside the box for the nearest cell)."""
+    def index_of(self, points):
+        """The index along `axes` of the cell that holds each of `points` (points on a face
+        count for the cell above; points outside the box for the nearest cell)."""
         points = np.atleast_2d(points)
+        return tuple(np.clip(np.floor((points[:, a] - self.p0[a]) / self.size[a]).astype(int),
+                             0, self.n[a] - 1) for a in self.axes)
+
+    def cells_of(self, points):
+        """Mask of the cells that hold any of `points` (as index_of places them)."""
         mask = np.zeros(self.shape, bool)
-        if len(points):
-            index = [np.clip(np.floor((points[:, a] - self.p0[a]) / self.size[a]).astype(int),
-                             0, self.n[a] - 1) for a in self.axes]
-            mask[tuple(index)] = True
+        if len(np.atleast_2d(points)):
+            mask[self.index_of(points)] = True
         return mask
 
     def dilate(self, mask, margin):
