@@ -22,11 +22,10 @@ def link_energies(links, fields=None):
     real = np.array([i.isReal for i in links], bool)
     normal, shear = np.zeros(len(links)), np.zeros(len(links))
     if real.any():
-        if fields is None:              # of the real links
-            fields, rows = Fields([i.phys for i, r in zip(links, real) if r], LINK_FIELDS), \
-                slice(None)
-        else:                           # of every link
-            rows = real
+        rows = real                     # rows of `fields`: every link's
+        if fields is None:              # or only the real links'
+            fields = Fields([i.phys for i, r in zip(links, real) if r], LINK_FIELDS)
+            rows = slice(None)
         square = lambda name: (fields.read(name)[rows] ** 2).sum(axis=1)
         normal[real] = 0.5 * square("normalForce") / fields.read("kn")[rows]
         shear[real] = 0.5 * square("shearForce") / fields.read("ks")[rows]
