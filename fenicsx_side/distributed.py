@@ -22,8 +22,8 @@ class RankZeroModel:
 
     Global arrays, gathered once: nodes, mass, fixed, cell_nodes (global node indices), and
     ndof. Collective calls: predict, correct, u, v, kinetic_energy, strain_energy,
-    critical_dt, point_operators, check_covered, stress; ranks other than 0 call serve()
-    instead.
+    critical_dt, critical_dt_bound, point_operators, check_covered, stress; ranks other than
+    0 call serve() instead.
     """
 
     def __init__(self, model):
@@ -81,6 +81,9 @@ class RankZeroModel:
 
     def critical_dt(self):
         return self._call("critical_dt")
+
+    def critical_dt_bound(self):
+        return self._call("critical_dt_bound")
 
     def point_operators(self, points):
         return self._call("point_operators", np.asarray(points, float))
@@ -147,6 +150,9 @@ class RankZeroModel:
 
     def _critical_dt(self):
         return self.model.critical_dt()
+
+    def _critical_dt_bound(self):
+        return self.model.critical_dt_bound()
 
     def _point_operators(self, points):
         return self.model.point_operators(points)

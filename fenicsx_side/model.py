@@ -236,6 +236,21 @@ class ElasticModel:
         self.dominant_mode = mode.array.copy()
         return 2.0 / np.sqrt(lam * (1 + _EIG_TOL))
 
+    def critical_dt_bound(self):
+        """A lower bound of critical_dt without an eigensolve: by Gershgorin's theorem the
+        largest eigenvalue of M^-½ K M^-½ (fixed dofs scaled out, as there) is at most its
+        largest absolute row sum, s_i Σ_j |K_ij| s_j, s = 1/√m (0 on fixed dofs): one
+        product with |K|, 0.03 s at paper scale where SLEPc takes 0.12 s from a good start.
+        Collective."""
+        scale = np.zeros(self.ndof_global)
+        for dofs, values in self.comm.allgather(
+                (self.global_dofs, np.where(self.fixed, 0.0, 1.0 / np.sqrt(self.mass)))):
+            scale[dofs] = values
+        K = self.K
+        absolute = sp.csr_matrix((np.abs(K.data), K.indices, K.indptr), K.shape, copy=False)
+        rows = scale[self.global_dofs] * (absolute @ scale)
+        return 2.0 / np.sqrt(self.comm.allreduce(rows.max(initial=0.0), op=MPI.MAX))
+
     # --- energies ---------------------------------------------------------------------------
     def kinetic_energy(self, weights=None):
         """½ Σ w m v² with the half-step velocity v(t − dt/2); weights per dof (default 1)."""

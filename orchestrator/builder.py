@@ -178,7 +178,7 @@ def assemble_grown(d, old):
     index = _coupled_spheres(d, fe, ref_pos, problems)
     beta = d.bridging.beta(ref_pos) if consistent else np.ones(len(ids))
     before = np.concatenate([p.beta, np.ones(len(added))])
-    dt, critical = _time_step(d, fe, beta, problems, _mode_on(old.fe, fe))
+    dt, critical = _time_step(d, fe, beta, problems, old.fe)
     if problems:
         raise BuildError(problems)
     radius = np.concatenate([old.spheres.radius, added.radius])
@@ -201,7 +201,7 @@ def assemble_grown(d, old):
     spheres = BodySet.joined(old.spheres, added, ref_pos)     # masses read once weighted
     bridge = spheres.subset(index, ref_pos[index])
     relaxation, notes = _relaxation(d, bridge, dt, critical)
-    coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation)
+    coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation, exact_ratio=False)
     stepper = CoupledStepper(p.O.step, bridge, fe, coupling)
     inside = d.scene.attach(stepper.couple)
     return Parts(p.O, ids, fe, d.bridging, beta, index, np.empty(0, int), stepper, dt, critical,
@@ -365,12 +365,13 @@ class Model:
             self.fe.cell_centres)
 
 
-def couple(fe, bridging, bridge, dt, spec, relaxation):
+def couple(fe, bridging, bridge, dt, spec, relaxation, exact_ratio=True):
     """The coupling of the spheres `bridge` to `fe` as CouplingSpec `spec` says, with r =
     `relaxation`: α and β weigh the multipliers for the nodal weighting; the consistent one
-    has them inside the partners already (α = β = 1 here)."""
+    has them inside the partners already (α = β = 1 here). exact_ratio: see
+    orchestrator.coupling.correction.Coupling."""
     return make_coupling(fe, bridging, bridge, dt, spec.variant, relaxation, spec.rotations,
-                         nodal_weights=not spec.consistent)
+                         nodal_weights=not spec.consistent, exact_ratio=exact_ratio)
 
 
 def _coupled_spheres(d, fe, ref_pos, problems):
@@ -391,12 +392,20 @@ def _coupled_spheres(d, fe, ref_pos, problems):
     return index
 
 
-def _time_step(d, fe, beta, problems, start=None):
-    """dt and the critical steps; `start`: where the FE's eigenvalue iteration starts."""
+def _time_step(d, fe, beta, problems, old_fe=None):
+    """dt and the critical steps. With `old_fe` (the FE part of the model a grown zone's is
+    made from: the same less cells) and dt given, the FE's is its lower bound
+    (critical_dt_bound, as "fe_at_least") where that already holds dt; else its eigenvalue
+    iteration starts from old_fe's dominant mode."""
     de_critical = d.scene.critical_dt(beta)
-    fe_critical = (np.inf if fe is None else fe.critical_dt() if start is None
-                   else fe.critical_dt(start))
-    critical = {"de": de_critical, "fe": None if fe is None else fe_critical}
+    critical = {"de": de_critical, "fe": None}
+    bounded = fe is not None and old_fe is not None and d.dt is not None
+    fe_critical = np.inf if fe is None else fe.critical_dt_bound() if bounded else 0.0
+    if bounded and fe_critical >= d.dt:
+        critical = {"de": de_critical, "fe_at_least": fe_critical}
+    elif fe is not None:
+        start = None if old_fe is None else _mode_on(old_fe, fe)
+        fe_critical = critical["fe"] = fe.critical_dt() if start is None else fe.critical_dt(start)
     dt, source = (d.dt, d.dt_source) if d.dt is not None else d.scene.time_step
     try:
         dt = time_step(de_critical, fe_critical, d.dt_safety, dt, source)

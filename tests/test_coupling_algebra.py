@@ -181,3 +181,29 @@ def test_lumping_ratio_is_the_largest_eigenvalue_of_the_lumped_against_the_full_
     Coupling(**args, variant="diagonal", rotations=rotations, relaxation=0.55 * dense)
     with pytest.raises(ValueError, match=r"r = 0.4 makes the full coupling unstable"):
         Coupling(**args, variant="full", rotations=rotations, relaxation=0.4)
+
+
+@pytest.mark.parametrize("rotations", [False, True])
+def test_lumping_bound_is_gershgorins_and_spares_arpack_where_it_shows_r_stable(rotations):
+    """The bound is max_i Δt² (D⁻¹_i + (|G| W⁻¹ |G|ᵀ 1)_i) / diag_i, at least the largest
+    absolute row sum of diag⁻¹ S (dense), hence at least ρ; exactly 1 for translations alone
+    (k ≥ 0: diag is S's row sums). With exact_ratio False, ρ is not computed where
+    r ≥ bound/2, computed (and r accepted) between ρ/2 and bound/2, and r < ρ/2 refused."""
+    args, _ = synthetic()
+    c = Coupling(**args, variant="diagonal", rotations=rotations, relaxation=5.0)
+    S = multiplier_matrix(c.G, c.de_inv_mass, c.fe_inv_mass, c.dt).toarray()
+    d = c.solver.diagonal
+    gershgorin = (np.abs(S).sum(axis=1) / d).max()
+    assert c.lumping_bound >= gershgorin * (1 - 1e-12)
+    assert c.lumping_bound >= c.lumping_ratio
+    if not rotations:
+        assert c.lumping_bound == pytest.approx(1.0, rel=1e-12)
+        return
+    assert c.lumping_bound > 1.2 * c.lumping_ratio      # room for the case between
+    rho, bound = c.lumping_ratio, c.lumping_bound
+    lazy = lambda r: Coupling(**args, variant="diagonal", rotations=True, relaxation=r,
+                              exact_ratio=False)
+    assert lazy(0.5 * bound).lumping_ratio is None
+    assert lazy(0.55 * rho).lumping_ratio == pytest.approx(rho, rel=1e-12)
+    with pytest.raises(ValueError, match=r"unstable: .* r < ρ/2"):
+        lazy(0.45 * rho)

@@ -21,7 +21,7 @@ def test_two_ranks_give_the_serial_model_to_round_off():
     assert r["ranks"] == 2
     assert r["fixed_mismatch"] == 0 and r["cells"][0] == r["cells"][1]
     # Set-up quantities are sums of the same element terms in another order: a few ulps.
-    for key in ("nodes", "mass", "critical_dt", "k", "h", "von_mises_max"):
+    for key in ("nodes", "mass", "critical_dt", "critical_dt_bound", "k", "h", "von_mises_max"):
         assert r[key] < 1e-13, (key, r[key])
     # 300 explicit steps: PETSc's parallel mat-vec adds the on- and off-process parts of a row
     # separately, so each step differs from serial by a few ulps and the stable scheme

@@ -41,6 +41,23 @@ def test_critical_dt_matches_a_dense_eigensolve(cell):
     assert m.critical_dt() == pytest.approx(2 / omega_max, rel=1e-8)
 
 
+@pytest.mark.parametrize("cell", ["hexahedron", "tetrahedron"])
+def test_critical_dt_bound_is_gershgorins_and_below_the_critical_step(cell):
+    """The bound is 2/√ of the largest absolute row sum of M^-½ K M^-½ over the free dofs
+    (dense here), which by Gershgorin's theorem is at least its largest eigenvalue: at most
+    the critical step, on the 3D box and on the bar."""
+    msh = box_mesh((0, 0, 0), (0.6, 0.4, 0.3), (3, 2, 2), cell)
+    m = ElasticModel(msh, E, 0.3, RHO, dirichlet=[(face(0, 0.0), (0, 1, 2)), (face(2, 0.3), (2,))])
+    free = ~m.fixed
+    scale = 1 / np.sqrt(m.mass[free])
+    S = m.K.toarray()[np.ix_(free, free)] * np.outer(scale, scale)
+    assert m.critical_dt_bound() == pytest.approx(2 / np.sqrt(np.abs(S).sum(axis=1).max()),
+                                                  rel=1e-12)
+    assert m.critical_dt_bound() <= m.critical_dt() * (1 + 1e-12)
+    b = bar(1.0, 0.02)
+    assert b.critical_dt_bound() <= b.critical_dt() * (1 + 1e-12)
+
+
 def test_critical_dt_started_from_another_models_mode_is_the_same():
     """A grown zone's FE part is the old one less cells: its critical step, started from the
     old part's dominant mode on its nodes (or from a mode that is not its own), is the one

@@ -33,14 +33,14 @@ def time_step(de_critical, fe_critical, safety=None, dt=None, source="dt"):
 
 
 def make_coupling(fe, bridging, bridge, dt, variant="full", relaxation=1.0, rotations=True,
-                  backend="auto", nodal_weights=True):
+                  backend="auto", nodal_weights=True, exact_ratio=True):
     """Coupling of the bridge spheres (`bridge.ref_pos`, `mass`, `inertia`) to the FE model.
     nodal_weights: α and β weigh the multipliers (the paper's); False when both partners
     already integrate their weighted energies (the consistent weighting: weights inside their
-    masses and stiffnesses, so α = β = 1 here)."""
+    masses and stiffnesses, so α = β = 1 here); exact_ratio: see Coupling."""
     k, h = fe.point_operators(bridge.ref_pos)
     beta = bridging.beta(bridge.ref_pos) if nodal_weights else np.ones(len(bridge.ref_pos))
     alpha = bridging.alpha(fe.nodes) if nodal_weights else np.ones(len(fe.nodes))
     return Coupling(k, h if rotations else None, bridge.mass, bridge.inertia, beta, fe.mass,
                     np.repeat(alpha, 3), fe.fixed, dt, variant=variant, relaxation=relaxation,
-                    rotations=rotations, backend=backend)
+                    rotations=rotations, backend=backend, exact_ratio=exact_ratio)

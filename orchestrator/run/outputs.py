@@ -66,13 +66,14 @@ def fe_damage(m):
 
 
 def coupling_figures(c):
-    """What summary.json records of the coupling: the solver, r, and how many rotation rows
+    """What summary.json records of the coupling: the solver, r, how many rotation rows
     the diagonal solver's stability guard weakens (the absolute row sum in the lumped
-    multiplier: the rotation constraint is then enforced more softly)."""
+    multiplier: the rotation constraint is then enforced more softly), ρ and its bound (ρ
+    None where the bound alone showed r stable: a grown zone's models)."""
     return {"variant": c.variant, "relaxation": c.relaxation, "rotations": c.rotations,
             "bridging_spheres": c.n, "rotation_rows": 3 * c.n if c.rotations else 0,
             "guarded_rotation_rows": c.guarded_rotation_rows,
-            "lumping_ratio": c.lumping_ratio}
+            "lumping_ratio": c.lumping_ratio, "lumping_ratio_bound": c.lumping_bound}
 
 
 def write_results(out, title, model, rec, summary_data, arrays=None):

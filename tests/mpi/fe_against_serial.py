@@ -37,7 +37,8 @@ def main():
            "nodes": float(np.abs(dist.nodes - serial.nodes[to_serial_node]).max()),
            "mass": rel(dist.mass, serial.mass[to_serial]),
            "fixed_mismatch": int((dist.fixed != serial.fixed[to_serial]).sum()),
-           "critical_dt": rel(dist.critical_dt(), serial.critical_dt())}
+           "critical_dt": rel(dist.critical_dt(), serial.critical_dt()),
+           "critical_dt_bound": rel(dist.critical_dt_bound(), serial.critical_dt_bound())}
     points = np.random.default_rng(0).uniform((0.05, 0.05, 0.05), (0.95, 0.55, 0.25), (200, 3))
     (kd, hd), (ks, hs) = dist.point_operators(points), serial.point_operators(points)
     out["k"] = rel(kd.toarray(), ks[:, to_serial].toarray())
