@@ -5,6 +5,9 @@ GOALS = {"coupling_fraction": 0.10, "fe_fraction": 0.05, "speedup_over_ratio": 0
          "full_memory_GB": 2.5, "coupled_memory_GB": 1.0, "coupled_100k_steps_h": 1.5,
          "fe_damage_fraction": 0.10, "paper_speedup": 10.0, "band_share": 0.40,
          "conversion_steps": 10.0}
+# the conversions timed (bench.run): the default start zone's ring at each scale, and at
+# paper scale a larger zone's
+CONVERSIONS = ("conversion", "conversion_large")
 MODEL_NAMES = {"full": "full", "coupled": "coupled", "coupled_damage": "coupled, FE damage"}
 
 
@@ -55,11 +58,13 @@ def derive(raw):
             per_scale[scale]["coupled_damage"] = model_figures(d)
             per_scale[scale]["fe_damage_fraction"] = (window["split_median_s"]["fe"] /
                                                       window["median_s"])
-        if "conversion" in runs:          # one conversion of the zone grown during the run
-            v = runs["conversion"]
-            per_scale[scale]["conversion"] = {k: v[k] for k in (
-                "spheres_before", "spheres_after", "conversion_s", "build_wall_s",
-                "carry_wall_s", "wall_s", "grown_step_s", "conversion_steps")}
+        for key in CONVERSIONS:          # one conversion of the zone grown during the run
+            if key in runs:
+                v = runs[key]
+                per_scale[scale][key] = {k: v[k] for k in (
+                    "spheres_before", "spheres_after", "conversion_s", "build_wall_s",
+                    "carry_wall_s", "wall_s", "grown_step_s", "conversion_steps",
+                    "start_zone_m")}
     threads = raw["threads"]
     one = threads.get("1", {}).get("s_per_step")
     thread_speedup = {t: one / x["s_per_step"] for t, x in threads.items()} if one else {}
@@ -106,13 +111,14 @@ def goals(per_scale):
             out.append(_goal(name, s[model]["peak_GB"] < GOALS[key], f"{s[model]['peak_GB']:.2f} GB"))
         else:
             out.append(_goal(name, None, f"not measured ({scale}: {s[model]['peak_GB']:.2f} GB)"))
-    if "conversion" in s:
-        v = s["conversion"]
+    timed = [s[key] for key in CONVERSIONS if key in s]
+    if timed:
         out.append(_goal(f"a conversion of the grown zone <= {GOALS['conversion_steps']:g} steps "
                          f"of the grown model" + at,
-                         v["conversion_steps"] <= GOALS["conversion_steps"],
-                         f"{v['conversion_steps']:.0f} steps ({v['conversion_s']:.2f} s, "
-                         f"{v['spheres_before']:,} to {v['spheres_after']:,} spheres)"))
+                         max(v["conversion_steps"] for v in timed) <= GOALS["conversion_steps"],
+                         "; ".join(f"{v['conversion_steps']:.0f} steps ({v['conversion_s']:.2f} s, "
+                                   f"{v['spheres_before']:,} to {v['spheres_after']:,} spheres)"
+                                   for v in timed)))
     c = s["coupled"]
     share = c["n_bridging_spheres"] / c["n_spheres"]
     out.append(_goal(f"bridging share of the default coupled model's spheres <= "
@@ -246,16 +252,17 @@ def _conversion_table(per_scale):
     lines = ["", "## A conversion of the zone grown during the run", "",
               "The default grown zone (`slab --model coupled`, docs/auto-zone.md) converts the "
               "ring of FE cells around its start zone, a few steps into the run; its cost on "
-              "the same clock as the steps, and in steps of the grown model. Of it, wall time: "
-              "build (the grown model's, through the builder, in the running scene), carry "
-              "(the state into what is new).", "",
-              "| scale | spheres before | after | conversion (s) | build (s) | carry (s) | "
-              "grown model's step (ms) | conversion in its steps |",
-              "|---|---:|---:|---:|---:|---:|---:|---:|"]
+              "the same clock as the steps, and in steps of the grown model. At paper scale "
+              "also the ring around a 1.5 m start zone: a late conversion's size. Of it, wall "
+              "time: build (the grown model's, through the builder, in the running scene), "
+              "carry (the state into what is new).", "",
+              "| scale | start zone (m) | spheres before | after | conversion (s) | build (s) | "
+              "carry (s) | grown model's step (ms) | conversion in its steps |",
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for scale, s in per_scale.items():
-        if "conversion" in s:
-            v = s["conversion"]
-            lines.append(f"| {scale} | {v['spheres_before']:,} | {v['spheres_after']:,} | "
+        for v in (s[key] for key in CONVERSIONS if key in s):
+            lines.append(f"| {scale} | {v['start_zone_m']:g} | {v['spheres_before']:,} | "
+                         f"{v['spheres_after']:,} | "
                          f"{v['conversion_s']:.2f} | {v['build_wall_s']:.2f} | "
                          f"{v['carry_wall_s']:.2f} | "
                          f"{_ms(v['grown_step_s'])} | {v['conversion_steps']:.0f} |")

@@ -192,7 +192,8 @@ def conversion_cost(task):
     timing = timed_steps(m, 2, task["steps"])
     if len(m.conversions) > 1:
         raise RuntimeError("the zone grew again while its steps were timed")
-    return {"task": task, "spheres_before": before, "spheres_after": after,
+    return {"task": task, "start_zone_m": spec.de_zone if spec.zone_start is None
+            else spec.zone_start, "spheres_before": before, "spheres_after": after,
             "conversion_s": seconds, "build_wall_s": record["build_s"],
             "carry_wall_s": record["carry_s"],
             "wall_s": record["wall_s"], "grown_step_s": timing["median_s"],

@@ -100,22 +100,29 @@ def test_the_fe_with_damage_is_judged_in_the_impact_window():
 
 def test_a_conversion_is_judged_in_steps_of_the_grown_model():
     """0.6 s for a conversion whose grown model steps in 0.05 s: 12 steps, over the 10 of the
-    goal; 0.4 s: 8, within it; both in the table."""
+    goal; 0.4 s: 8, within it; both in the table. A larger zone's conversion is judged too:
+    3 s at 0.4 s a step (8 steps) leaves the verdict to the first, 4.4 s (11) misses."""
     r = raw(coupled_peak_gb=0.5)
-    for seconds, steps, met in ((0.6, 12, False), (0.4, 8, True)):
-        r["scales"]["paper"]["conversion"] = {
-            "spheres_before": 12_000, "spheres_after": 20_000, "conversion_s": seconds,
-            "build_wall_s": 0.4, "carry_wall_s": 0.1, "wall_s": seconds,
-            "grown_step_s": 0.05,
-            "conversion_steps": seconds / 0.05}
+    conversion = lambda seconds, step, start: {
+        "start_zone_m": start, "spheres_before": 12_000, "spheres_after": 20_000,
+        "conversion_s": seconds, "build_wall_s": 0.4, "carry_wall_s": 0.1, "wall_s": seconds,
+        "grown_step_s": step, "conversion_steps": seconds / step}
+    for seconds, large, met in ((0.6, 3.0, False), (0.4, 3.0, True), (0.4, 4.4, False)):
+        r["scales"]["paper"]["conversion"] = conversion(seconds, 0.05, 0.5)
+        r["scales"]["paper"]["conversion_large"] = conversion(large, 0.4, 1.5)
         d = derive(r)
         g = goal(d, "a conversion of the grown zone <= 10 steps")
-        assert g["met"] is met and g["figure"].startswith(f"{steps} steps ({seconds:.2f} s, 12,000")
+        steps, steps_large = round(seconds / 0.05), round(large / 0.4)
+        assert g["met"] is met and g["figure"] == (
+            f"{steps} steps ({seconds:.2f} s, 12,000 to 20,000 spheres); "
+            f"{steps_large} steps ({large:.2f} s, 12,000 to 20,000 spheres)")
         table = markdown(dict(d, raw=r, mode="full", date_utc="today", bench_wall_s=60.0,
                               machine_at_start={"cpus": 2, "load_average": (0.1, 0, 0)},
                               machine_at_end={"load_average": (0.2, 0, 0)}))
-        assert (f"| paper | 12,000 | 20,000 | {seconds:.2f} | 0.40 | 0.10 | 50.00 | "
+        assert (f"| paper | 0.5 | 12,000 | 20,000 | {seconds:.2f} | 0.40 | 0.10 | 50.00 | "
                 f"{steps} |") in table
+        assert (f"| paper | 1.5 | 12,000 | 20,000 | {large:.2f} | 0.40 | 0.10 | 400.00 | "
+                f"{steps_large} |") in table
 
 
 def test_goals_without_paper_scale_are_labelled_and_memory_not_judged():
