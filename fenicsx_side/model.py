@@ -240,8 +240,8 @@ class ElasticModel:
         """A lower bound of critical_dt without an eigensolve: by Gershgorin's theorem the
         largest eigenvalue of M^-½ K M^-½ (fixed dofs scaled out, as there) is at most its
         largest absolute row sum, s_i Σ_j |K_ij| s_j, s = 1/√m (0 on fixed dofs): one
-        product with |K|, 0.03 s at paper scale where SLEPc takes 0.12 s from a good start.
-        Collective."""
+        product with |K|, hundredths of a second at paper scale where SLEPc takes 0.12 s
+        from a good start. Collective."""
         scale = np.zeros(self.ndof_global)
         for dofs, values in self.comm.allgather(
                 (self.global_dofs, np.where(self.fixed, 0.0, 1.0 / np.sqrt(self.mass)))):

@@ -398,14 +398,15 @@ def _time_step(d, fe, beta, problems, old_fe=None):
     (critical_dt_bound, as "fe_at_least") where that already holds dt; else its eigenvalue
     iteration starts from old_fe's dominant mode."""
     de_critical = d.scene.critical_dt(beta)
-    critical = {"de": de_critical, "fe": None}
-    bounded = fe is not None and old_fe is not None and d.dt is not None
-    fe_critical = np.inf if fe is None else fe.critical_dt_bound() if bounded else 0.0
-    if bounded and fe_critical >= d.dt:
-        critical = {"de": de_critical, "fe_at_least": fe_critical}
-    elif fe is not None:
+    critical, fe_critical = {"de": de_critical, "fe": None}, np.inf
+    if fe is not None and old_fe is not None and d.dt is not None:
+        fe_critical = fe.critical_dt_bound()
+        if fe_critical >= d.dt:
+            critical = {"de": de_critical, "fe_at_least": fe_critical}
+    if fe is not None and "fe_at_least" not in critical:
         start = None if old_fe is None else _mode_on(old_fe, fe)
-        fe_critical = critical["fe"] = fe.critical_dt() if start is None else fe.critical_dt(start)
+        fe_critical = fe.critical_dt() if start is None else fe.critical_dt(start)
+        critical["fe"] = fe_critical
     dt, source = (d.dt, d.dt_source) if d.dt is not None else d.scene.time_step
     try:
         dt = time_step(de_critical, fe_critical, d.dt_safety, dt, source)

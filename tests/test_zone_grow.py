@@ -471,3 +471,42 @@ def test_a_zone_grown_in_place_is_the_scene_a_fresh_build_of_that_zone_makes():
                                        abs=4 * stretch * R)
     assert grown[1] == fresh[1] and grown[2] == fresh[2]
     assert grown[3] == fresh[3] == set(fresh[0])
+
+
+@pytest.mark.parametrize("dt, expect, calls", [
+    (1e-6, {"fe_at_least": 2e-6}, ["bound"]),
+    (2.5e-6, {"fe": 3e-6}, ["bound", "exact"]),
+    (4e-6, None, ["bound", "exact"]),
+])
+def test_a_grown_zones_fe_step_is_checked_on_its_bound_first(dt, expect, calls):
+    """A grown zone's model runs at the run's dt: the FE's step is checked on its lower bound
+    (critical_dt_bound) alone where that holds dt, else on the eigensolve's, which refuses a
+    dt above it; a first model (no old FE) takes the eigensolve's."""
+    from orchestrator.builder import Description, _time_step
+
+    class FE:
+        nodes = np.zeros((1, 3))
+
+        def __init__(self):
+            self.calls = []
+
+        def critical_dt_bound(self):
+            self.calls.append("bound")
+            return 2e-6
+
+        def critical_dt(self, start=None):
+            self.calls.append("exact")
+            return 3e-6
+
+    scene = SimpleNamespace(critical_dt=lambda beta: 1e-5, time_step=(None, ""))
+    d = Description(scene=scene, dt=dt)
+    fe, problems = FE(), []
+    step, critical = _time_step(d, fe, np.ones(1), problems, old_fe=FE())
+    assert fe.calls == calls
+    if expect is None:
+        assert step is None and "above the FE critical step" in problems[0]
+    else:
+        assert step == dt and not problems and critical == dict(expect, de=1e-5)
+    first = FE()
+    assert _time_step(d, first, np.ones(1), [], old_fe=None)[1]["fe"] == 3e-6
+    assert first.calls == ["exact"]
