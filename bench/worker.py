@@ -199,7 +199,19 @@ def conversion_cost(task):
             "wall_s": record["wall_s"], "grown_step_s": timing["median_s"],
             "conversion_steps": seconds / timing["median_s"],
             "peak_rss_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
-            "timing": timing}
+            "timing": timing, "checks": _bounded_checks(m)}
+
+
+def _bounded_checks(m):
+    """The grown model's stability checks as the conversion made them (bounds, where they
+    held) beside the exact values they stand for, found here, after the timing: the FE's
+    critical step and the lumping ratio ρ (r must be at least ρ/2)."""
+    from orchestrator.coupling.multipliers import lumping_ratio
+    c = m.stepper.coupling
+    return {"dt": m.dt, "critical_dt": m.critical, "fe_critical_dt_exact": m.fe.critical_dt(),
+            "relaxation": c.relaxation, "lumping_ratio_bound": c.lumping_bound,
+            "lumping_ratio_exact": lumping_ratio(c.G, c.de_inv_mass, c.fe_inv_mass, c.dt,
+                                                 c.solver.diagonal)}
 
 
 def _zone(spec, cells):
