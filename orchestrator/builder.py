@@ -304,6 +304,11 @@ class Model:
             d = np.vstack([d, self.fe.u.reshape(-1, 3)[self._sensor_nodes]])
         return d if self.sensor_order is None else d[self.sensor_order]
 
+    def quantities(self, last=None):
+        """What the run records of its quantities of interest (a case's: `names`, `before()`,
+        `sample()`), or None; `last`: those of the model this one was grown from."""
+        return None
+
     def energy(self):
         """Kinetic (spheres, FE) + CPM elastic + FE strain energy (energy_parts): with the
         consistent weighting, the coupled model's weighted energy; with the nodal one the

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from cli.main import STOPPED, main
-from orchestrator.run.outputs import read_sensors
+from orchestrator.run.outputs import QUANTITIES, read_quantities, read_sensors
 from yade_side.output import read_series
 
 # the small slab at 40 m/s from the 0.5 m box: band links break at once, and the zone grows at
@@ -117,6 +117,15 @@ def test_a_grown_run_resumed_ends_as_the_run_not_stopped(runs, tmp_path, step):
     peak = np.abs(ha).max(axis=(0, 2))
     assert peak.min() > 1e-6                                  # every sensor moved
     assert (np.abs(hb - ha).max(axis=(0, 2)) <= 1e-9 * peak).all()
+    # the QoIs alike; their rates unmeasured at t = 0 and at a sampled conversion's step
+    (ta, na, qa), (tb, nb, qb) = (read_quantities(d / QUANTITIES) for d in (reference, out))
+    assert na == nb and same_bits(ta, tb)
+    unmeasured = np.isnan(qa[:, na.index("contact_force")])
+    sampled = [n for n in [0, *steps] if n % 5 == 0]          # sample_every: 5
+    assert np.array_equal(np.flatnonzero(unmeasured), [n // 5 for n in sampled])
+    assert np.array_equal(np.isnan(qa), np.isnan(qb))
+    peak = np.nanmax(np.abs(qa), axis=0)
+    assert (np.nanmax(np.abs(qb - qa), axis=0) <= 1e-9 * peak).all()
     da, db = np.load(reference / "damage.npz"), np.load(out / "damage.npz")
     for key in da.files:
         assert np.allclose(db[key], da[key], rtol=1e-9, atol=1e-12), key   # FE damage 2e-12

@@ -149,6 +149,63 @@ def test_model_invariants():
             on_support = np.isclose(m.fe.nodes[:, 0], 0) | np.isclose(m.fe.nodes[:, 0], slab.SLAB[0])
             assert on_support.any() and not m.fe.u[3 * np.flatnonzero(on_support) + 2].any()
             assert len(slab_ids) < 9514  # a DE zone, not the whole slab
+        check_quantities(m, O)
+
+
+def check_quantities(m, O):
+    """The QoIs against what they are measured by (cases.slab.quantities), one step past
+    contact: the contact force is the sum of YADE's forces on the impactor's spheres; the
+    reaction is what holds the supports: minus YADE's z forces on the supported spheres
+    (full; every force inside the packing cancels), or the FE's internal force K u at its
+    held dofs (coupled, elastic FE: the coupling's forces cancel, Σ_a N_a = 1); the patch
+    means of a uniform z displacement added to every sphere and FE node are that
+    displacement. Tolerances: the round-off of the momentum sums, divided by the step."""
+    eps = np.finfo(float).eps
+    q = m.quantities()
+    u = None if m.fe is None else m.fe.u.copy()
+    q.before()
+    m.step()
+    values = dict(zip(q.names, q.sample()))
+    size = sum(np.abs(b.mass * b.read()[:, 5]).sum() for b in m.energy_bodies)
+    if m.fe is not None:
+        size += np.abs(m.fe.mass * m.fe.v).sum()
+    tol = 16 * eps * size / m.dt                    # N: a few ulps of each momentum term
+    force = sum(O.forces.f(int(i))[2] for i in m.impactor_ids)
+    assert abs(force) > 1e3 * tol and values["contact_force"] == pytest.approx(force, abs=tol)
+    if m.fe is None:
+        held = -sum(O.forces.f(int(i))[2] for i in m.support_ids)
+    else:
+        z_held = np.flatnonzero(m.fe.fixed & (np.arange(m.fe.ndof) % 3 == 2))
+        held = (m.fe.K @ u)[z_held].sum()
+    assert abs(held) > 1e3 * tol and values["reaction"] == pytest.approx(held, abs=tol)
+    before = q.sample()[5:]
+    m.spheres.move(np.array([0.0, 0.0, -1e-3]))
+    expected = np.full(len(before), -1e-3)
+    if m.fe is not None:
+        shift = np.where(~m.fe.fixed & (np.arange(m.fe.ndof) % 3 == 2), -1e-3, 0.0)
+        m.fe.u = m.fe.u + shift
+        # a patch whose points lie in a cell at a support reads its held nodes, which stay
+        held = np.asarray(q.fe_mean[:, m.fe.fixed].sum(axis=1)).ravel()
+        assert set(np.flatnonzero(held)) <= {0, 8}              # x = 0.25 and 2.25 only
+        expected *= 1 - held
+    np.testing.assert_allclose(q.sample()[5:] - before, expected, rtol=0, atol=8 * eps)
+
+
+def test_patches_are_the_bottom_spheres_within_the_radius():
+    """A sphere's centre on the centre line, just inside a patch's rim or just past it, in the bottom
+    layer or one diameter up: only those within PATCH_RADIUS and one diameter of z = 0."""
+    from cases.slab.quantities import PATCH_RADIUS, PROFILE_Y, patch_points
+    r = 0.01
+    x = 1.25
+    centres = np.array([[x, PROFILE_Y, r], [x + PATCH_RADIUS * (1 - 1e-9), PROFILE_Y, r],
+                        [x, PROFILE_Y + PATCH_RADIUS * (1 + 1e-9), r], [x, PROFILE_Y, 2.01 * r],
+                        [x - 0.6 * PATCH_RADIUS, PROFILE_Y + 0.6 * PATCH_RADIUS, 1.99 * r]])
+    centres = np.vstack([centres, [[xp, PROFILE_Y, r] for xp in (0.25, 0.5, 0.75, 1.0, 1.5,
+                                                                  1.75, 2.0, 2.25)]])
+    patches = patch_points(centres, r)
+    assert patches[x].tolist() == [0, 1, 4] and len(patches) == 9
+    with pytest.raises(ValueError, match="no sphere of the packing in the patch at x = 0.25 m"):
+        patch_points(centres[:5], r)
 
 
 def test_grid_rejects_a_de_zone_that_does_not_fit():

@@ -239,6 +239,10 @@ class SlabModel(Model):
         if self.yield_watch is not None and self.O.iter % YIELD_EVERY == 0:
             self.yield_watch.check(self.O.time)
 
+    def quantities(self, last=None):
+        from cases.slab.quantities import Quantities
+        return Quantities(self, None if last is None else last.start)
+
     def bar_figures(self):
         """What summary.json records of the bars (None for a plain slab)."""
         if not self.spec.reinforced:

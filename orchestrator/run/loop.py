@@ -67,9 +67,9 @@ def run(model, schedule, out, title, reference_energy, info=None, arrays=None, c
         peak = None if m.fe is None else outputs.fe_peak(recorder.rec)
         warnings = list(checks(recorder.rec.maps[-1], peak)) if checks else []
         summary = outputs.summary(m, recorder.rec, schedule, wall, recorder.seconds(),
-                                  warnings, info)
+                                  warnings, info, recorder.qoi)
         outputs.write_results(out, title, m, recorder.rec, summary,
-                              arrays() if callable(arrays) else arrays)
+                              arrays() if callable(arrays) else arrays, recorder.qoi)
         for w in warnings:
             log.warning(w)
             print(f"WARNING: {w}")
@@ -85,6 +85,8 @@ def _loop(m, schedule, recorder, title, quiet):
     s, rec = schedule, recorder.rec
     with restart.StopRequest() as stop, progress(s.steps, title, quiet, initial=rec.n) as bar:
         for n in range(rec.n + 1, s.steps + 1):
+            if n % s.sample_every == 0:
+                recorder.before_sample()
             try:
                 m.step()
             except RuntimeError as e:           # YADE's errors, a PyRunner's among them

@@ -7,8 +7,9 @@ from orchestrator.run.checks import fe_cells_checked
 from yade_side import yade_threads
 
 
-def summary(model, rec, schedule, wall, seconds, warnings, info):
-    """summary.json's content: `info` first, then the run's figures."""
+def summary(model, rec, schedule, wall, seconds, warnings, info, quantities=None):
+    """summary.json's content: `info` first, then the run's figures; `quantities`: the
+    run's QoIs (Model.quantities), whose definitions and end figures it records."""
     m, history, final = model, np.array(rec.history), rec.maps[-1]
     damaged = m.damaged_volume(final)
     stepper = m.stepper
@@ -37,6 +38,9 @@ def summary(model, rec, schedule, wall, seconds, warnings, info):
         "coupling": None if stepper is None else coupling_figures(stepper.coupling),
         "fe_peak_stress": None if m.fe is None else fe_peak(rec),
         "fe_damage": fe_damage(m) if m.fe_damages else None,
+        "quantities": None if quantities is None else {
+            **quantities.definitions(),
+            **quantities.end_figures(np.array(rec.times), np.array(rec.quantities))},
         "warnings": warnings,
     })
     return out
@@ -76,11 +80,14 @@ def coupling_figures(c):
             "lumping_ratio": c.lumping_ratio, "lumping_ratio_bound": c.lumping_bound}
 
 
-def write_results(out, title, model, rec, summary_data, arrays=None):
-    """summary.json, sensors.csv, damage.npz, sensors.png and damage.png of a finished run."""
+def write_results(out, title, model, rec, summary_data, arrays=None, quantities=None):
+    """summary.json, sensors.csv, damage.npz, sensors.png and damage.png of a finished run;
+    with `quantities` (its QoIs), quantities.csv."""
     m, times, history = model, np.array(rec.times), np.array(rec.history)
     write_json(out / "summary.json", summary_data)
     write_sensors(out / "sensors.csv", m.sensor_names, times, history)
+    if quantities is not None:
+        write_quantities(out / QUANTITIES, quantities.names, times, np.array(rec.quantities))
     # where the FE carries damage, what its cells and the spheres weigh in the damaged volume
     fe = ({"fe_centres": m.fe.cell_centres, "fe_volume": m.fe_cell_volumes(),
            "fe_damage": m.fe.damage, "fe_broken": m.fe_broken(),
@@ -95,6 +102,21 @@ def write_results(out, title, model, rec, summary_data, arrays=None):
 def write_sensors(path, names, times, history):
     header = ["t"] + [f"{n}_{c}" for n in names for c in "xyz"]
     write_csv(path, header, np.column_stack([times, history.reshape(len(times), -1)]))
+
+
+QUANTITIES = "quantities.csv"
+
+
+def write_quantities(path, names, times, values):
+    write_csv(path, ["t", *names], np.column_stack([times, values]))
+
+
+def read_quantities(path):
+    """(times, names, values (n_times, n_quantities)) of a quantities.csv."""
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return data[:, 0], header[1:], data[:, 1:]
 
 
 def read_sensors(path):

@@ -27,11 +27,16 @@ class Recorder:
         self.fe_read = fe_cells_checked(model)
         if growing:
             model.on_grow.append(self.regrid)
+        # the quantities of interest, if the model has them: made before a checkpoint is
+        # loaded, so that they read the model's state at t = 0 first
+        self.qoi = model.quantities()
         if resume:
-            self.rec = restart.load(out, model, meta)
+            self.rec = restart.load(out, model, meta, self.qoi is not None)
             log.info("resumed from the checkpoint of step %d", self.rec.n)
         else:
-            self.rec = restart.Record(times=[0.0], history=[model.sensor_displacements()])
+            self.rec = restart.Record(times=[0.0], history=[model.sensor_displacements()],
+                                      quantities=[] if self.qoi is None
+                                      else [self.qoi.sample()])
         frames = len(self.rec.maps_t)
         self.spheres = SphereSeries(out / "spheres.pvd", frames=frames)
         self.fe_series = None
@@ -45,9 +50,16 @@ class Recorder:
         if not resume:
             self.output(0.0)
 
+    def before_sample(self):
+        """The step about to run ends at a sample: what its rates need before it."""
+        if self.qoi is not None:
+            self.qoi.before()
+
     def sample(self, t):
         self.rec.times.append(t)
         self.rec.history.append(self.m.sensor_displacements())
+        if self.qoi is not None:
+            self.rec.quantities.append(self.qoi.sample())
         if self.m.fe is not None:
             self._fe_peak(t)
 
@@ -106,6 +118,8 @@ class Recorder:
         at = match(old.spheres.ref_pos, new.spheres.ref_pos, 1e-9)
         self.rec.maps = [np.where(at >= 0, m[at], 0.0) for m in self.rec.maps]
         self.meta.update(restart.fingerprint(new, self.meta["title"], self.meta["steps"]))
+        if self.qoi is not None:
+            self.qoi = new.quantities(self.qoi)
         self.fe_read = fe_cells_checked(new)
         if self.fe_series is not None:
             from fenicsx_side.output import XdmfSeries

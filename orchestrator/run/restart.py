@@ -46,6 +46,7 @@ class Record:
     maps_t: list = field(default_factory=list)
     maps: list = field(default_factory=list)      # damage per sphere per output
     gaps: list = field(default_factory=list)      # (t, constraint gap before, after) per check
+    quantities: list = field(default_factory=list)  # the QoIs per sample (a case's, or none)
     seconds: dict = field(default_factory=dict)   # time split of the earlier run segments
     wall_s: float = 0.0                           # wall time of earlier run segments
     # the FE's largest cell σ1 over the samples and its time, then its largest von Mises and time
@@ -54,6 +55,10 @@ class Record:
     # the run starts a file per FE mesh)
     fe_series: str = "fe.xdmf"
     fe_first: int = 0
+
+
+# what a checkpoint of an earlier version lacks
+EARLIER = {"fe_peak": "the FE's peak stress", "quantities": "the quantities of interest"}
 
 
 def add_splits(a, b):
@@ -82,6 +87,7 @@ def save(out, record, model, meta, seconds):
              "history": np.array(record.history), "energy": np.array(record.energy).reshape(-1, 2),
              "maps_t": np.array(record.maps_t), "maps": np.array(record.maps),
              "gaps": np.array(record.gaps).reshape(-1, 3),
+             "quantities": np.array(record.quantities),
              "wall_s": record.wall_s, "fe_peak": np.array(record.fe_peak),
              "fe_series": np.array(record.fe_series), "fe_first": record.fe_first}
     if model.fe is not None:
@@ -153,9 +159,10 @@ def check_inputs(out, inputs):
     return saved
 
 
-def load(out, model, meta):
+def load(out, model, meta, quantities=False):
     """Put the model in the state of the checkpoint in `out` and return its Record; raises
-    ValueError, before touching the model, if the checkpoint is not of this model."""
+    ValueError, before touching the model, if the checkpoint is not of this model;
+    `quantities`: the run records QoIs, which the checkpoint must hold."""
     from yade_side.checkpoint import load_scene
     folder = _folder(out)
     saved = check_inputs(out, meta.get("inputs"))
@@ -174,10 +181,12 @@ def load(out, model, meta):
                if model.fe is not None else [])
     needed += ["rotation", "rotation_pred"] if model.stepper is not None else []
     needed += [f"de_history_{k}" for k in model.de_history()]
+    needed += ["quantities"] if quantities else []
     missing = [k for k in needed if k not in state]
-    if missing == ["fe_peak"]:
+    if missing and set(missing) <= {"fe_peak", "quantities"}:
         raise ValueError(f"{folder / 'state.npz'}: a checkpoint of an earlier version, which did "
-                         f"not record the FE's peak stress: run it again from the start")
+                         f"not record {' nor '.join(EARLIER[k] for k in missing)}: run it again "
+                         f"from the start")
     if missing:
         raise ValueError(f"{folder / 'state.npz'}: unreadable checkpoint file (no "
                          f"{', '.join(missing)} in it)")
@@ -194,7 +203,8 @@ def load(out, model, meta):
                                   if k.startswith("exchange_")})
     return Record(int(state["n"]), list(state["times"]), list(state["history"]),
                   [tuple(e) for e in state["energy"]], list(state["maps_t"]),
-                  list(state["maps"]), [tuple(g) for g in state["gaps"]], saved["seconds"],
+                  list(state["maps"]), [tuple(g) for g in state["gaps"]],
+                  list(state.get("quantities", [])), saved["seconds"],
                   float(state["wall_s"]), [float(v) for v in state["fe_peak"]],
                   str(state.get("fe_series", "fe.xdmf")), int(state.get("fe_first", 0)))
 

@@ -1,0 +1,153 @@
+"""What an engineer reads of a slab impact, recorded alike by the full and the coupled model
+(the quantities of interest, QoIs), one definition each:
+
+- impactor_z: the impactor's centre-of-mass z displacement since t = 0 (m, down < 0);
+- impactor_vz: its centre-of-mass z velocity (m/s), the half-step velocity of the integrator;
+- contact_force: the z force on the impactor, its momentum change over the step that ends
+  at the sample divided by the step (N, up > 0): no body force acts on it, so this is the
+  slab's push, exact for the central-difference integrator;
+- penetration: how far the impactor's front has gone below the slab's original top face, m
+  (negative: above): its descent since t = 0 less the fall before the first contact
+  (impactor_gap, exact by construction: cases.slab.geometry.make_packings); the front is the
+  mean z of the impactor's spheres that start within one sphere diameter of its lowest
+  centre (a mean, like the patches: a random packing's faces are rough by a radius, and
+  the front moves apart from the centre of mass where the impactor crushes);
+- reaction: the supports' summed z reaction, the whole model's momentum change over the
+  step divided by the step (N, up > 0): the supports are the only external force (no
+  gravity), and the coupling's forces are internal (partition of unity: they cancel);
+- deflection_xX: the z displacement (m) of a patch of the slab's bottom face centred at
+  (X, 1.0), the span's centre line: the mean over the points of the slab's packing whose
+  centre lies within PATCH_RADIUS in plan and within one sphere diameter of the bottom face
+  (more than three sphere diameters across at every scale). The points are the packing's
+  sphere centres, the same in both models: where the coupled model has a sphere there (DE
+  zone, band) its displacement, elsewhere the FE field's at that point.
+
+The two rates are NaN where the step before the sample was not seen (t = 0, and the sample
+of a step where a grown zone was converted: its momentum is carried, not integrated).
+"""
+import numpy as np
+
+from cases.slab.scales import SLAB
+
+VERSION = 1                 # bumped when a definition changes: compare refuses to mix them
+PATCH_RADIUS = 0.1          # m, in plan
+PROFILE_X = tuple(np.round(np.arange(0.25, SLAB[0], 0.25), 2))   # the span's centre line
+PROFILE_Y = 0.5 * SLAB[1]
+IMPACTOR = ("impactor_z", "impactor_vz", "contact_force", "penetration")
+NAMES = IMPACTOR + ("reaction",) + tuple(f"deflection_x{x:.2f}" for x in PROFILE_X)
+RATES = ("contact_force", "reaction")
+
+
+def patch_points(centres, radius):
+    """{patch x: indices of the packing's spheres (centres (n, 3)) in that patch}; `radius`:
+    the packing's sphere radius (the bottom layer is one diameter deep)."""
+    plan = np.asarray(centres, float)
+    bottom = plan[:, 2] < 2 * radius
+    out = {}
+    for x in PROFILE_X:
+        near = np.hypot(plan[:, 0] - x, plan[:, 1] - PROFILE_Y) <= PATCH_RADIUS
+        out[x] = np.flatnonzero(near & bottom)
+        if out[x].size == 0:
+            raise ValueError(f"no sphere of the packing in the patch at x = {x} m")
+    return out
+
+
+class Quantities:
+    """The QoIs of a built SlabModel: `names`; `before()` reads the momenta before a sampled
+    step, `sample()` after it returns the values in `names` order."""
+    names = NAMES
+
+    @staticmethod
+    def definitions():
+        """What summary.json records of the definitions (compare refuses runs that
+        differ)."""
+        return {"version": VERSION, "names": list(NAMES), "patch_radius_m": PATCH_RADIUS,
+                "profile_x_m": [float(x) for x in PROFILE_X], "profile_y_m": PROFILE_Y}
+
+    def __init__(self, model, start=None):
+        from yade_side.bulk import BodySet
+        packs, self.m = model.scene.packs, model
+        self.impactor = model.impactor
+        self.impactor.read()
+        z = self.impactor.pos[:, 2]
+        self.front = np.flatnonzero(z < z.min() + 2 * model.spec.radius)
+        # the start, read here unless given: a run's first model is built at t = 0 (a resumed
+        # one too, before its checkpoint is loaded); a grown zone's takes it from the last
+        self.start = (self._centre()[0][2], self._front()) if start is None else start
+        self.gap = model.spec.impactor_gap
+        row = {int(k): i for i, k in enumerate(model.slab_index)}
+        patches = patch_points(packs.slab_centres, model.spec.radius)
+        points = np.concatenate(list(patches.values()))
+        rows = np.array([row.get(int(k), -1) for k in points])
+        has = rows >= 0
+        # the patch means: a (patches × points) averaging, split into the points with a
+        # sphere and those read on the FE
+        owner = np.repeat(np.arange(len(patches)), [len(p) for p in patches.values()])
+        weight = 1.0 / np.bincount(owner)[owner]
+        self.spheres = BodySet(model.spheres.ids[rows[has]], ref_pos=packs.slab_centres[points[has]])
+        self.sphere_mean = _averaging(owner[has], weight[has], len(patches))
+        self.fe_mean = None
+        if not has.all():
+            k = model.fe.point_operators(packs.slab_centres[points[~has]])[0][2::3]
+            self.fe_mean = _averaging(owner[~has], weight[~has], len(patches)) @ k
+        self.before_p = None
+
+    def _front(self):
+        return float(np.mean(self.impactor.pos[self.front, 2]))
+
+    def _centre(self):
+        i = self.impactor
+        mass = i.mass.sum()
+        return i.mass @ i.pos / mass, i.mass @ i.vel / mass
+
+    def _momenta(self):
+        """(impactor's, whole model's) z momentum now."""
+        total = 0.0
+        for bodies in self.m.energy_bodies:
+            bodies.read()
+            total += bodies.mass @ bodies.vel[:, 2]
+        fe = self.m.fe
+        if fe is not None:
+            total += (fe.mass * fe.v)[2::3].sum()
+        i = self.impactor
+        return i.mass @ i.vel[:, 2], total
+
+    def before(self):
+        self.before_p = self._momenta()
+
+    def sample(self):
+        dt = self.m.dt
+        now = self._momenta()          # reads the impactor too
+        rates = ((np.nan, np.nan) if self.before_p is None
+                 else ((now[0] - self.before_p[0]) / dt, (now[1] - self.before_p[1]) / dt))
+        self.before_p = None
+        x, v = self._centre()
+        self.spheres.read()
+        deflection = self.sphere_mean @ self.spheres.displacement()[:, 2]
+        if self.fe_mean is not None:
+            deflection = deflection + self.fe_mean @ self.m.fe.u
+        centre0, front0 = self.start
+        return np.concatenate([[x[2] - centre0, v[2], rates[0],
+                                front0 - self._front() - self.gap, rates[1]], deflection])
+
+    @staticmethod
+    def end_figures(times, values):
+        """What summary.json records at the end: the impactor's residual velocity (m/s, its
+        centre of mass's z velocity at the last sample), whether it perforated the slab (its
+        front below the slab's original bottom face: penetration past the thickness), and
+        each QoI's peak |value| and its time."""
+        values = np.asarray(values, float)
+        last = dict(zip(NAMES, values[-1]))
+        peaks = {}
+        for name, column in zip(NAMES, values.T):
+            ok = np.isfinite(column)
+            k = int(np.argmax(np.where(ok, np.abs(column), -np.inf)))
+            peaks[name] = {"peak": float(abs(column[k])), "time_s": float(times[k])}
+        return {"residual_velocity_m_s": float(last["impactor_vz"]),
+                "perforated": bool(last["penetration"] > SLAB[2]), "peaks": peaks}
+
+
+def _averaging(patch, weight, n):
+    """(n × points) sparse matrix: row p the mean over its points."""
+    import scipy.sparse as sp
+    return sp.csr_matrix((weight, (patch, np.arange(len(patch)))), shape=(n, len(patch)))
