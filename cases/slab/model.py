@@ -241,7 +241,7 @@ class SlabModel(Model):
 
     def quantities(self, last=None):
         from cases.slab.quantities import Quantities
-        return Quantities(self, None if last is None else last.start)
+        return Quantities(self, last)
 
     def bar_figures(self):
         """What summary.json records of the bars (None for a plain slab)."""

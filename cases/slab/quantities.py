@@ -3,18 +3,21 @@
 
 - impactor_z: the impactor's centre-of-mass z displacement since t = 0 (m, down < 0);
 - impactor_vz: its centre-of-mass z velocity (m/s), the half-step velocity of the integrator;
-- contact_force: the z force on the impactor, its momentum change over the step that ends
-  at the sample divided by the step (N, up > 0): no body force acts on it, so this is the
-  slab's push, exact for the central-difference integrator;
+- contact_force: the z force on the impactor averaged over the sample interval that ends at
+  the sample: its momentum change over the interval divided by the interval (N, up > 0).
+  No body force acts on it, so this is the slab's push; for the central-difference
+  integrator the momentum change is exactly the sum of the steps' forces × dt, so the
+  samples integrate to the impulse exactly, whatever the interval;
 - penetration: how far the impactor's front has gone below the slab's original top face, m
   (negative: above): its descent since t = 0 less the fall before the first contact
   (impactor_gap, exact by construction: cases.slab.geometry.make_packings); the front is the
   mean z of the impactor's spheres that start within one sphere diameter of its lowest
   centre (a mean, like the patches: a random packing's faces are rough by a radius, and
   the front moves apart from the centre of mass where the impactor crushes);
-- reaction: the supports' summed z reaction, the whole model's momentum change over the
-  step divided by the step (N, up > 0): the supports are the only external force (no
-  gravity), and the coupling's forces are internal (partition of unity: they cancel);
+- reaction: the supports' summed z reaction averaged over the sample interval, the whole
+  model's momentum change over the interval divided by it (N, up > 0): the supports are the
+  only external force (no gravity), and the coupling's forces are internal (partition of
+  unity: they cancel);
 - deflection_xX: the z displacement (m) of a patch of the slab's bottom face centred at
   (X, 1.0), the span's centre line: the mean over the points of the slab's packing whose
   centre lies within PATCH_RADIUS in plan and within one sphere diameter of the bottom face
@@ -22,8 +25,8 @@
   sphere centres, the same in both models: where the coupled model has a sphere there (DE
   zone, band) its displacement, elsewhere the FE field's at that point.
 
-The two rates are NaN where the step before the sample was not seen (t = 0, and the sample
-of a step where a grown zone was converted: its momentum is carried, not integrated).
+The two forces are NaN at t = 0 (no interval), and the reaction at the first sample after a
+grown zone's conversion (the model's momentum is carried there, not integrated).
 """
 import numpy as np
 
@@ -35,7 +38,9 @@ PROFILE_X = tuple(np.round(np.arange(0.25, SLAB[0], 0.25), 2))   # the span's ce
 PROFILE_Y = 0.5 * SLAB[1]
 IMPACTOR = ("impactor_z", "impactor_vz", "contact_force", "penetration")
 NAMES = IMPACTOR + ("reaction",) + tuple(f"deflection_x{x:.2f}" for x in PROFILE_X)
-RATES = ("contact_force", "reaction")
+# for plots: (scale, unit) of each kind of QoI (a deflection_xX is a "deflection")
+UNITS = {"impactor_z": (1e3, "mm"), "impactor_vz": (1.0, "m/s"), "contact_force": (1e-3, "kN"),
+         "penetration": (1e3, "mm"), "reaction": (1e-3, "kN"), "deflection": (1e3, "mm")}
 
 
 def patch_points(centres, radius):
@@ -53,8 +58,8 @@ def patch_points(centres, radius):
 
 
 class Quantities:
-    """The QoIs of a built SlabModel: `names`; `before()` reads the momenta before a sampled
-    step, `sample()` after it returns the values in `names` order."""
+    """The QoIs of a built SlabModel: `names`; `sample()` returns their values now, in
+    `names` order."""
     names = NAMES
 
     @staticmethod
@@ -64,17 +69,24 @@ class Quantities:
         return {"version": VERSION, "names": list(NAMES), "patch_radius_m": PATCH_RADIUS,
                 "profile_x_m": [float(x) for x in PROFILE_X], "profile_y_m": PROFILE_Y}
 
-    def __init__(self, model, start=None):
+    def __init__(self, model, last=None):
         from yade_side.bulk import BodySet
         packs, self.m = model.scene.packs, model
         self.impactor = model.impactor
         self.impactor.read()
         z = self.impactor.pos[:, 2]
         self.front = np.flatnonzero(z < z.min() + 2 * model.spec.radius)
-        # the start, read here unless given: a run's first model is built at t = 0 (a resumed
-        # one too, before its checkpoint is loaded); a grown zone's takes it from the last
-        self.start = (self._centre()[0][2], self._front()) if start is None else start
         self.gap = model.spec.impactor_gap
+        # a run's first model is built at t = 0 (a resumed one too, before its checkpoint is
+        # loaded): its start is read here; a grown zone's model takes the start and the last
+        # sample's momenta of `last`, the model it grew from, less the whole model's
+        # momentum, which the conversion carries rather than integrates
+        if last is None:
+            self.start = (self._centre()[0][2], self._front())
+            self.last = np.array([*self._momenta(), model.O.iter])
+        else:
+            self.start, self.last = last.start, last.last.copy()
+            self.last[1] = np.nan
         row = {int(k): i for i, k in enumerate(model.slab_index)}
         patches = patch_points(packs.slab_centres, model.spec.radius)
         points = np.concatenate(list(patches.values()))
@@ -90,7 +102,6 @@ class Quantities:
         if not has.all():
             k = model.fe.point_operators(packs.slab_centres[points[~has]])[0][2::3]
             self.fe_mean = _averaging(owner[~has], weight[~has], len(patches)) @ k
-        self.before_p = None
 
     def _front(self):
         return float(np.mean(self.impactor.pos[self.front, 2]))
@@ -112,15 +123,18 @@ class Quantities:
         i = self.impactor
         return i.mass @ i.vel[:, 2], total
 
-    def before(self):
-        self.before_p = self._momenta()
+    def state(self):
+        """What a checkpoint keeps: the last sample's momenta and step."""
+        return self.last.copy()
+
+    def restore(self, state):
+        self.last = np.array(state, float)
 
     def sample(self):
-        dt = self.m.dt
-        now = self._momenta()          # reads the impactor too
-        rates = ((np.nan, np.nan) if self.before_p is None
-                 else ((now[0] - self.before_p[0]) / dt, (now[1] - self.before_p[1]) / dt))
-        self.before_p = None
+        now = np.array([*self._momenta(), self.m.O.iter])   # reads the impactor too
+        interval = (now[2] - self.last[2]) * self.m.dt
+        rates = (now[:2] - self.last[:2]) / interval if interval > 0 else [np.nan, np.nan]
+        self.last = now
         x, v = self._centre()
         self.spheres.read()
         deflection = self.sphere_mean @ self.spheres.displacement()[:, 2]

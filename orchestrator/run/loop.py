@@ -85,8 +85,6 @@ def _loop(m, schedule, recorder, title, quiet):
     s, rec = schedule, recorder.rec
     with restart.StopRequest() as stop, progress(s.steps, title, quiet, initial=rec.n) as bar:
         for n in range(rec.n + 1, s.steps + 1):
-            if n % s.sample_every == 0:
-                recorder.before_sample()
             try:
                 m.step()
             except RuntimeError as e:           # YADE's errors, a PyRunner's among them

@@ -32,6 +32,8 @@ class Recorder:
         self.qoi = model.quantities()
         if resume:
             self.rec = restart.load(out, model, meta, self.qoi is not None)
+            if self.qoi is not None:
+                self.qoi.restore(self.rec.quantity_state)
             log.info("resumed from the checkpoint of step %d", self.rec.n)
         else:
             self.rec = restart.Record(times=[0.0], history=[model.sensor_displacements()],
@@ -49,11 +51,6 @@ class Recorder:
         self.t_run = perf_counter()
         if not resume:
             self.output(0.0)
-
-    def before_sample(self):
-        """The step about to run ends at a sample: what its rates need before it."""
-        if self.qoi is not None:
-            self.qoi.before()
 
     def sample(self, t):
         self.rec.times.append(t)
@@ -134,6 +131,8 @@ class Recorder:
     def checkpoint(self, n):
         rec = self.rec
         rec.n = n
+        if self.qoi is not None:
+            rec.quantity_state = self.qoi.state()
         rec.wall_s += perf_counter() - self.t_run
         self.t_run = perf_counter()
         restart.save(self.out, rec, self.m, self.meta, self.seconds())

@@ -55,10 +55,12 @@ class Record:
     # the run starts a file per FE mesh)
     fe_series: str = "fe.xdmf"
     fe_first: int = 0
+    quantity_state: list = field(default_factory=list)   # what the QoIs carry between samples
 
 
 # what a checkpoint of an earlier version lacks
-EARLIER = {"fe_peak": "the FE's peak stress", "quantities": "the quantities of interest"}
+EARLIER = {"fe_peak": "the FE's peak stress", "quantities": "the quantities of interest",
+           "quantity_state": "the quantities' state"}
 
 
 def add_splits(a, b):
@@ -88,6 +90,7 @@ def save(out, record, model, meta, seconds):
              "maps_t": np.array(record.maps_t), "maps": np.array(record.maps),
              "gaps": np.array(record.gaps).reshape(-1, 3),
              "quantities": np.array(record.quantities),
+             "quantity_state": np.array(record.quantity_state),
              "wall_s": record.wall_s, "fe_peak": np.array(record.fe_peak),
              "fe_series": np.array(record.fe_series), "fe_first": record.fe_first}
     if model.fe is not None:
@@ -181,9 +184,9 @@ def load(out, model, meta, quantities=False):
                if model.fe is not None else [])
     needed += ["rotation", "rotation_pred"] if model.stepper is not None else []
     needed += [f"de_history_{k}" for k in model.de_history()]
-    needed += ["quantities"] if quantities else []
+    needed += ["quantities", "quantity_state"] if quantities else []
     missing = [k for k in needed if k not in state]
-    if missing and set(missing) <= {"fe_peak", "quantities"}:
+    if missing and set(missing) <= {"fe_peak", "quantities", "quantity_state"}:
         raise ValueError(f"{folder / 'state.npz'}: a checkpoint of an earlier version, which did "
                          f"not record {' nor '.join(EARLIER[k] for k in missing)}: run it again "
                          f"from the start")
@@ -206,7 +209,8 @@ def load(out, model, meta, quantities=False):
                   list(state["maps"]), [tuple(g) for g in state["gaps"]],
                   list(state.get("quantities", [])), saved["seconds"],
                   float(state["wall_s"]), [float(v) for v in state["fe_peak"]],
-                  str(state.get("fe_series", "fe.xdmf")), int(state.get("fe_first", 0)))
+                  str(state.get("fe_series", "fe.xdmf")), int(state.get("fe_first", 0)),
+                  list(state.get("quantity_state", [])))
 
 
 def _folder(out):
