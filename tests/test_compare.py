@@ -6,7 +6,8 @@ import pytest
 
 from common.files import save_npz, write_json
 from cli.main import main
-from orchestrator.run.outputs import write_sensors
+from cases.slab.quantities import NAMES as QOI, SENSE, Quantities, kind
+from orchestrator.run.outputs import QUANTITIES, write_quantities, write_sensors
 
 NAMES = ["under_impact", "de_zone", "bridging", "fe_node"]
 T = np.linspace(0.0, 1e-3, 101)
@@ -23,10 +24,12 @@ def member(folder, model, seed, amplitude, scale="small", s_per_step=1.0, volume
             "full_width": True, "layers": 3, "seed": seed, "elastic_outside": False}
     write_json(folder / "summary.json", {
         "model": model, "spec": spec, "s_per_step": s_per_step, "n_spheres": 10 if model ==
-        "full" else 6, "damage": {"damaged_volume_m3": volume, "broken_links": 10 * volume}})
+        "full" else 6, "damage": {"damaged_volume_m3": volume, "broken_links": 10 * volume},
+        "quantities": Quantities.definitions()})
     h = np.zeros((len(T), len(NAMES), 3))
     h[:, :, 2] = amplitude * SHAPE[:, None]
     write_sensors(folder / "sensors.csv", NAMES, T * end / T[-1], h)
+    write_quantities(folder / QUANTITIES, QOI, T * end / T[-1], amplitude * qoi_shape())
     n = 10 if model == "full" else 6
     damage = np.linspace(0, 1, 10)[:n]
     save_npz(folder / "damage.npz", times=np.array([0.0, T[-1]]),
@@ -34,6 +37,11 @@ def member(folder, model, seed, amplitude, scale="small", s_per_step=1.0, volume
              .uniform((0, 0, 0), (2.5, 2.0, 0.28), (n, 3)), radius=np.full(n, 0.025),
              in_de_zone=np.arange(n) < 4, slab_index=np.arange(n))
     return folder
+
+
+def qoi_shape():
+    """SHAPE in every QoI's sense (down for the displacements, up for the rest)."""
+    return np.column_stack([(-1 if SENSE[kind(n)] < 0 else 1) * SHAPE for n in QOI])
 
 
 def test_one_pair_keeps_its_figures_at_the_top(tmp_path):
@@ -113,12 +121,117 @@ def test_full_runs_at_another_time_step_are_judged_like_coupled_ones(tmp_path):
     assert r["ensemble"]["within_full_scatter"]["sensors"]["fe_node"]["nrms"]["within"]
 
 
-def test_a_verdict_needs_two_full_runs(tmp_path, capsys):
+def test_a_verdict_needs_the_members_of_the_test(tmp_path, capsys):
     member(tmp_path / "f", "full", 1, 1.0)
     member(tmp_path / "c", "coupled", 1, 1.0)
     assert main(["compare", str(tmp_path / "f"), str(tmp_path / "c"), "--verdict", "--out",
                  str(tmp_path / "cmp")]) == 2
-    assert "needs at least 2 full runs" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and (
+        "the equivalence test needs 2 same-seed pairs or 2 members of each model: got 1 full, "
+        "1 coupled, 1 pairs") in err
+
+
+def ensemble(folder, model, amplitudes):
+    for seed, a in amplitudes.items():
+        member(folder / f"seed-{seed}", model, seed, a)
+    return folder
+
+
+FULL = {1: 0.98, 2: 1.0, 3: 1.02, 4: 1.0}           # mean 1, pair differences known
+
+
+def judged(tmp_path, coupled, *options):
+    ensemble(tmp_path / "full", "full", FULL)
+    ensemble(tmp_path / "coupled", "coupled", coupled)
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "coupled"), "--out",
+                 str(tmp_path / "cmp"), *options]) == 0
+    return json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+
+
+def test_the_yardstick_finds_a_coupled_ensemble_like_the_full_one_equivalent(tmp_path, capsys):
+    """Coupled members 1.01 × their full pair: every pair difference is 0.01 a_k (a_k / 1 of
+    the full mean), peaks at the same sample: equivalent on every judged statistic, the
+    interval the paired t interval of 0.01 a_k."""
+    from scipy import stats
+    r = judged(tmp_path, {s: 1.01 * a for s, a in FULL.items()})
+    peak = r["judgement"]["qoi"]["deflection_x1.25"]["peak"]
+    d = 0.01 * np.array(list(FULL.values()))
+    half = stats.t.ppf(0.95, 3) * d.std(ddof=1) / 2
+    assert peak["test"] == "paired" and peak["n_pairs"] == 4
+    assert peak["interval"] == pytest.approx([d.mean() - half, d.mean() + half], abs=1e-9)
+    assert all(v["verdict"] == "equivalent" for q in r["judgement"]["qoi"].values()
+               for v in q.values())
+    assert r["headline"].startswith("yardstick: equivalent on 22 of 22 (margins: peak 10%")
+    out = capsys.readouterr().out
+    assert out.strip().splitlines()[-2] == r["headline"]
+    assert (tmp_path / "cmp" / "quantities.png").stat().st_size > 0
+    assert 'id="yardstick"' in (tmp_path / "cmp" / "report.html").read_text()
+
+
+def test_the_yardstick_fails_a_biased_ensemble_and_names_every_failure(tmp_path):
+    """Coupled members 1.2 × their pair: +20 % on every peak (and rms 0.2 rms(SHAPE) of the
+    history), twice the margin: not equivalent, each named in the headline; their peak
+    times agree."""
+    r = judged(tmp_path, {s: 1.2 * a for s, a in FULL.items()})
+    q = r["judgement"]["qoi"]
+    assert q["reaction"]["peak"]["difference"] == pytest.approx(0.2, abs=1e-9)
+    assert q["reaction"]["history"]["difference"] == pytest.approx(
+        0.2 * np.sqrt(np.mean(SHAPE**2)), abs=1e-9)
+    assert q["reaction"]["peak_time"]["verdict"] == "equivalent"
+    failed = [f"{n} {s}" for n, v in q.items() for s in v if v[s]["verdict"] != "equivalent"]
+    assert len(failed) == 15 and all(s in ("peak", "history") for f in failed
+                                     for s in [f.split()[-1]])
+    assert all(f in r["headline"] for f in failed) and "NOT equivalent: " in r["headline"]
+
+
+def test_the_yardstick_cannot_judge_a_wide_spread_nor_a_cut_window(tmp_path):
+    """Pair differences of ± 0.4 (spread far past the 10 % margin): cannot judge, with the
+    members it would need; and a member still rising at the window's end: not judged."""
+    r = judged(tmp_path, {1: 1.38, 2: 0.6, 3: 1.42, 4: 0.6})
+    peak = r["judgement"]["qoi"]["impactor_z"]["peak"]
+    assert peak["verdict"] == "cannot judge" and peak["members_needed"] > 4
+    assert f"impactor_z peak (needs {peak['members_needed']} members)" in r["headline"]
+    rising = ensemble(tmp_path / "rising", "coupled", {s: 1.0 for s in FULL})
+    values = qoi_shape()
+    values[:, QOI.index("reaction")] = T / T[-1]
+    write_quantities(rising / "seed-2" / QUANTITIES, QOI, T, values)
+    assert main(["compare", str(tmp_path / "full"), str(rising), "--out",
+                 str(tmp_path / "cut")]) == 0
+    r = json.loads((tmp_path / "cut" / "comparison.json").read_text())
+    assert r["judgement"]["qoi"]["reaction"] == {
+        s: {"verdict": "not judged", "last_sample": ["coupled 2"]}
+        for s in ("peak", "peak_time", "history")}
+    assert "not judged: reaction (extreme at the window's end)" in r["headline"]
+
+
+@pytest.mark.parametrize("margin", ["0", "-0.1", "nan", "inf"])
+def test_a_margin_that_is_not_positive_is_one_line(tmp_path, capsys, margin):
+    ensemble(tmp_path / "full", "full", FULL)
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "full" / "seed-1"),
+                 "--margin", margin, "--out", str(tmp_path / "cmp")]) == 2
+    err = capsys.readouterr().err
+    assert f"margin {float(margin)!r}: needs a finite number > 0" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "cmp").exists()
+
+
+def test_runs_without_the_quantities_or_with_other_definitions_are_refused(tmp_path, capsys):
+    ensemble(tmp_path / "full", "full", FULL)
+    ensemble(tmp_path / "c", "coupled", FULL)
+    summary = tmp_path / "c" / "seed-3" / "summary.json"
+    data = json.loads(summary.read_text())
+    data["quantities"]["patch_radius_m"] = 0.2
+    write_json(summary, data)
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "c"), "--out",
+                 str(tmp_path / "cmp")]) == 2
+    err = capsys.readouterr().err
+    assert "members differ in patch_radius_m: 0.1" in err and "0.2" in err
+    (tmp_path / "full" / "seed-2" / QUANTITIES).unlink()
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "full"), "--verdict",
+                 "--out", str(tmp_path / "cmp")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "has no quantities.csv" in err
+    assert not (tmp_path / "cmp").exists()
 
 
 def probed(folder, model, seed, layouts):

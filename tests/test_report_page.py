@@ -18,6 +18,7 @@ class Tables(HTMLParser):
     def __init__(self):
         super().__init__()
         self.tables, self.body, self._id, self._row = {}, {}, None, None
+        self.text = ""
 
     def handle_starttag(self, tag, attrs):
         a = dict(attrs)
@@ -37,6 +38,7 @@ class Tables(HTMLParser):
             self._id = self._row = None
 
     def handle_data(self, data):
+        self.text += data
         if self._row:
             self._row[-1] += data
 
@@ -73,9 +75,17 @@ def test_compare_report_opens_in_a_browser_with_every_picture_and_figure(tmp_pat
     page = Tables()
     page.feed(browser_dom(out / "report.html"))
     images = int(page.body["data-images"])
-    assert images == 2 + 2 * 2                 # the two ensemble pictures, two per pair
+    assert images == 3 + 2 * 2      # the QoIs' and the two ensemble pictures, two per pair
     assert page.body["data-images-decoded"] == page.body["data-images"]
     r = json.loads((out / "comparison.json").read_text())
+    rows = page.tables["yardstick"][1:]
+    j = r["judgement"]["qoi"]
+    assert sorted((row[0], row[1]) for row in rows) == sorted((n, s) for n in j for s in j[n])
+    for name, statistic, _, difference, _, se, margin, verdict in rows:
+        v = j[name][statistic]
+        assert close(difference, v["difference"]) and close(se, v["se"])
+        assert close(margin, v["margin"]) and verdict.startswith(v["verdict"])
+    assert r["headline"] in page.text
     w = r["ensemble"]["within_full_scatter"]
     verdicts = page.tables["verdicts"][1:]
     assert sorted(row[0] for row in verdicts) == sorted(w["sensors"])

@@ -298,3 +298,14 @@ def test_a_full_run_warns_when_links_outside_the_de_zone_crack(tmp_path):
                  "--output-every", "300", "--out", str(tmp_path / "full"), "--quiet"]) == 0
     warnings = json.loads((tmp_path / "full" / "summary.json").read_text())["warnings"]
     assert any("outside the coupled model's DE zone are damaged" in w for w in warnings)
+
+
+def test_a_qoi_peaks_in_its_sense():
+    """A rebounding impactor's centre rises past its start: its peak is the largest descent;
+    the reaction's is its largest magnitude, a pull as well; unmeasured samples never."""
+    from cases.slab.quantities import peak_index
+    assert peak_index("impactor_z", [0.0, -5.0, -3.0, 8.0]) == 1
+    assert peak_index("deflection_x1.25", [0.0, -1.0, 0.5, -0.9]) == 1
+    assert peak_index("penetration", [-2.0, 3.0, 9.0, 8.0]) == 2
+    assert peak_index("reaction", [np.nan, 5.0, -9.0, 4.0]) == 2
+    assert peak_index("contact_force", [np.nan, 0.0, 7.0, -9.0]) == 2

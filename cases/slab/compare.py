@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from cases.slab import compare_page
+from cases.slab import compare_page, judge
 from common.files import save_figure, write_json
 from orchestrator import ensemble, verdicts
-from orchestrator.run.outputs import damage_map, read_sensors
+from orchestrator.run.outputs import QUANTITIES, damage_map, read_quantities, read_sensors
 
 # the keys a full and a coupled member must share to be compared (and their duration: the
 # step may differ)
@@ -52,6 +52,10 @@ class Run:
             self.spec.update(de_zone=self.spec["zone_start"], full_width=False)
         self.seed = self.spec.get("seed", 1)
         self.t, self.names, self.h = read_sensors(self.folder / "sensors.csv")
+        # the quantities of interest (None: a run recorded before them)
+        self.quantities = None
+        if (self.folder / QUANTITIES).is_file():
+            self.quantities = read_quantities(self.folder / QUANTITIES)
         with np.load(self.folder / "damage.npz") as d:
             self.damage = {k: d[k] for k in d.files}
 
@@ -81,10 +85,13 @@ def members(folders, model):
 
 def load(full_dirs, coupled_dirs, verdict=False):
     """({seed: Run} full, {seed: Run} coupled), checked comparable; `verdict`: a verdict
-    against the full model's scatter is asked for, which needs two full runs at least."""
+    is asked for, which needs the members the equivalence test needs (judge.check_members)
+    and the quantities of interest, recorded alike in every run."""
     full, coupled = members(full_dirs, "full"), members(coupled_dirs, ("coupled", "full"))
     if verdict:
-        verdicts.check_members(len(full), len(coupled))
+        judge.check_members(len(full), len(coupled), len(full.keys() & coupled.keys()))
+    if verdict or judged(full, coupled):
+        _check_quantities([*full.values(), *coupled.values()])
     probed = take_probes(full, coupled)
     same = [k for k in SAME if not (probed and k in ZONE_KEYS)]
     ensemble.check_same_kind({f"{r.model} {s}": {k: r.spec.get(k) for k in same}
@@ -96,6 +103,27 @@ def load(full_dirs, coupled_dirs, verdict=False):
     for seed in full.keys() & coupled.keys():
         _check_duration(full[seed], coupled[seed])
     return full, coupled
+
+
+def judged(full, coupled):
+    """The runs are judged on the quantities of interest: the test has its members."""
+    try:
+        judge.check_members(len(full), len(coupled), len(full.keys() & coupled.keys()))
+    except ValueError:
+        return False
+    return True
+
+
+def _check_quantities(runs):
+    """Every run recorded the quantities of interest, with the same definitions."""
+    for r in runs:
+        if r.quantities is None:
+            raise ValueError(f"{r.folder} has no {QUANTITIES}: a run recorded before the "
+                             f"quantities of interest, which the verdict judges; run it again")
+    definition = lambda r: {k: v for k, v in r.summary["quantities"].items()
+                            if k in ("version", "names", "patch_radius_m", "profile_x_m",
+                                     "profile_y_m")}
+    ensemble.check_same_kind({f"{r.model} {r.seed} ({r.folder})": definition(r) for r in runs})
 
 
 def _check_duration(f, c):
@@ -153,9 +181,10 @@ def _at(run, name, position):
             and np.allclose(mine, position, rtol=0, atol=1e-9))
 
 
-def compare(full, coupled, out, verdict=False):
-    """comparison.json and PNGs in `out` for the runs of `load` (with two or more full runs,
-    the verdict against their scatter is given anyway)."""
+def compare(full, coupled, out, verdict=False, margin=None):
+    """comparison.json and PNGs in `out` for the runs of `load`: with the members the
+    equivalence test needs, the QoIs judged (judge.judge, `margin`: its margins) and the
+    sensors against the full scatter (given anyway with two or more full runs)."""
     names = next(iter(full.values())).names
     pairs = {s: pair(full[s], coupled[s]) for s in sorted(full.keys() & coupled.keys())}
     result = {"full": [str(r.folder) for r in full.values()],
@@ -163,6 +192,10 @@ def compare(full, coupled, out, verdict=False):
     if len(pairs) == 1 and len(full) == len(coupled) == 1:
         result.update(next(iter(pairs.values())))         # one pair: its figures at the top
     result["warnings"] = last_sample_warnings(pairs)
+    if verdict or judged(full, coupled):
+        result["judgement"] = judge.judge(_quantities(full), _quantities(coupled), margin)
+        result["headline"] = judge.headline(result["judgement"])
+        _plot_quantities(out / "quantities.png", full, coupled)
     if verdict or len(full) >= verdicts.MIN_FULL_MEMBERS:
         result["ensemble"] = _ensemble(full, coupled, names, out)
     write_json(out / "comparison.json", result)
@@ -247,6 +280,33 @@ def _matched_damage(f, c):
     where = {int(k): j for j, k in enumerate(f.damage["slab_index"])}
     match = np.array([where[int(k)] for k in c.damage["slab_index"]], int)
     return match, f.damage["damage"][-1][match], c.damage["damage"][-1], c.damage["in_de_zone"]
+
+
+def _quantities(runs):
+    return {s: r.quantities for s, r in runs.items()}
+
+
+def _plot_quantities(path, full, coupled):
+    """The judged QoIs of every member: full solid, coupled dashed, one colour per seed."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from cases.slab.quantities import UNITS, kind
+    names = list(judge.JUDGED)
+    fig, axes = plt.subplots(2, (len(names) + 1) // 2, figsize=(18, 7.5), sharex=True)
+    seeds = sorted(full.keys() | coupled.keys())
+    for ax, name in zip(axes.T.ravel(), names):
+        for side, runs, style in (("full", full, "-"), (_side(coupled.values()), coupled, "--")):
+            for s, r in sorted(runs.items()):
+                t, qnames, v = r.quantities
+                scale, unit = UNITS[kind(name)]
+                ax.plot(t * 1e3, v[:, qnames.index(name)] * scale, style, lw=1,
+                        color=f"C{seeds.index(s) % 10}",
+                        label=f"{side} {s}" if name == names[0] else None)
+        ax.set(title=name, xlabel="time (ms)", ylabel=unit)
+    axes.T.ravel()[0].legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    save_figure(fig, path)
 
 
 def _ensemble(full, coupled, names, out):

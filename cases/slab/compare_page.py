@@ -26,10 +26,52 @@ def verdict_cell(v):
     return verdict_text(v), "good" if v["within"] else "bad"
 
 
+def _members(r):
+    """The test and its members: pairs, or full + coupled runs."""
+    n = r["n_pairs"] if r["test"] == "paired" else f"{r['n_full']} + {r['n_coupled']}"
+    return f"{r['test']} ({n})"
+
+
+def _yardstick(result, out):
+    """The QoIs' verdicts (cases.slab.judge): its headline, a row per judged statistic."""
+    j = result["judgement"]
+    rows = []
+    for name, stats in j["qoi"].items():
+        for s, r in stats.items():
+            verdict = (r["verdict"], "good" if r["verdict"] == "equivalent" else "bad")
+            if "test" not in r:                 # not judged: the window's end
+                rows.append([name, s, "", "", "", "", "",
+                             (f"not judged (extreme at the window's end: "
+                              f"{', '.join(r['last_sample'])})", "bad")])
+                continue
+            bound = (f"≤ {num(r['upper'])}" if s == "history"
+                     else f"[{num(r['interval'][0])}, {num(r['interval'][1])}]")
+            need = r.get("members_needed")
+            if r["verdict"] == "cannot judge":
+                verdict = (f"cannot judge (needs {'> 1000' if need is None else need} "
+                           f"members)", "bad")
+            rows.append([name, s, _members(r),
+                         num(r["difference"]), bound, num(r["se"]), num(r["margin"]), verdict])
+    return [heading("The yardstick: quantities of interest"),
+            paragraph(result["headline"]),
+            paragraph(f"Window {num(1e3 * j['window_s'][0])}-{num(1e3 * j['window_s'][1])} ms. "
+                      f"Differences relative to the full mean (coupled - full); the verdict is "
+                      f"'equivalent' when the 90 % interval of the mean difference lies within "
+                      f"± the margin (the history's: its rms, and the bound of it), 'cannot "
+                      f"judge' when the members' spread is too wide for the margin "
+                      f"(docs/slab.md, 'The yardstick')."),
+            table(["QoI", "statistic", "test (members)", "difference", "90 % interval / bound",
+                   "standard error", "margin", "verdict"], rows, "yardstick"),
+            picture(out / "quantities.png", "the judged QoIs of every member: full solid, "
+                                            "compared dashed, a colour per seed")]
+
+
 def write(result, full, coupled, out):
     """out/report.html for the comparison `result` of the runs {seed: Run} `full`, `coupled`."""
     blocks = [paragraph(f"Reference (full) runs: {', '.join(result['full'])}"),
               paragraph(f"Compared runs: {', '.join(result['coupled'])}")]
+    if "judgement" in result:
+        blocks += _yardstick(result, out)
     ens = result.get("ensemble", {})
     if "within_full_scatter" in ens:
         w = ens["within_full_scatter"]

@@ -38,7 +38,26 @@ PROFILE_X = tuple(np.round(np.arange(0.25, SLAB[0], 0.25), 2))   # the span's ce
 PROFILE_Y = 0.5 * SLAB[1]
 IMPACTOR = ("impactor_z", "impactor_vz", "contact_force", "penetration")
 NAMES = IMPACTOR + ("reaction",) + tuple(f"deflection_x{x:.2f}" for x in PROFILE_X)
-# for plots: (scale, unit) of each kind of QoI (a deflection_xX is a "deflection")
+# the sense of each kind of QoI's peak: its largest descent (-1), rise (+1) or magnitude (0);
+# the impactor's centre rises past its start when it rebounds, and the supports pull as well
+# as push in the stress waves
+SENSE = {"impactor_z": -1, "impactor_vz": 0, "contact_force": 1, "penetration": 1,
+         "reaction": 0, "deflection": -1}
+
+
+def kind(name):
+    """The kind of a QoI: its name, or "deflection" for a deflection_xX."""
+    return name.split("_x")[0]
+
+
+def peak_index(name, values):
+    """Index of the QoI `name`'s peak in `values` (its unmeasured samples never)."""
+    sense = SENSE[kind(name)]
+    x = np.abs(values) if sense == 0 else sense * np.asarray(values)
+    return int(np.argmax(np.where(np.isfinite(x), x, -np.inf)))
+
+
+# for plots: (scale, unit) of each kind of QoI
 UNITS = {"impactor_z": (1e3, "mm"), "impactor_vz": (1.0, "m/s"), "contact_force": (1e-3, "kN"),
          "penetration": (1e3, "mm"), "reaction": (1e-3, "kN"), "deflection": (1e3, "mm")}
 
@@ -149,14 +168,13 @@ class Quantities:
         """What summary.json records at the end: the impactor's residual velocity (m/s, its
         centre of mass's z velocity at the last sample), whether it perforated the slab (its
         front below the slab's original bottom face: penetration past the thickness), and
-        each QoI's peak |value| and its time."""
+        each QoI's peak (peak_index: its value, signed) and its time."""
         values = np.asarray(values, float)
         last = dict(zip(NAMES, values[-1]))
         peaks = {}
         for name, column in zip(NAMES, values.T):
-            ok = np.isfinite(column)
-            k = int(np.argmax(np.where(ok, np.abs(column), -np.inf)))
-            peaks[name] = {"peak": float(abs(column[k])), "time_s": float(times[k])}
+            k = peak_index(name, column)
+            peaks[name] = {"peak": float(column[k]), "time_s": float(times[k])}
         return {"residual_velocity_m_s": float(last["impactor_vz"]),
                 "perforated": bool(last["penetration"] > SLAB[2]), "peaks": peaks}
 

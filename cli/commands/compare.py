@@ -13,23 +13,28 @@ def configure(p):
     p.add_argument("--full", nargs="+", default=[], metavar="DIR", help="more full runs")
     p.add_argument("--coupled", nargs="+", default=[], metavar="DIR", help="more coupled runs")
     p.add_argument("--verdict", action="store_true",
-                   help="judge the coupled runs against the full runs' own scatter (needs 2 full "
-                        "runs at least; given anyway with 2 or more)")
+                   help="judge the coupled runs on the quantities of interest (needs 2 same-seed "
+                        "pairs or 2 runs of each model; given anyway when they are there)")
+    p.add_argument("--margin", type=float, default=None, metavar="FRACTION",
+                   help="the equivalence margin of every judged statistic, a fraction of the "
+                        "full mean (default: 0.10 on peaks, their times and histories)")
     add_out(p, "folder for comparison.json and plots")
 
 
 def run(args):
     from cases.slab.compare import compare, load
     from cases.slab.compare_page import verdict_text
+    from cases.slab.judge import margins
     from orchestrator.run.folder import check_out, prepare_out
     full = [d for d in [args.full_dir] if d] + args.full
     coupled = [d for d in [args.coupled_dir] if d] + args.coupled
     if not full:
         raise ValueError("give the full run(s): FULL_DIR or --full DIR ...")
+    margins(args.margin)
     check_out(args.out, args.force, inputs=[*full, *coupled])
     runs = load(full, coupled, verdict=args.verdict)   # every refusal before the folder is made
     out = prepare_out(args.out, args.force, inputs=[*full, *coupled])
-    r = compare(*runs, out, verdict=args.verdict)
+    r = compare(*runs, out, verdict=args.verdict, margin=args.margin)
     for seed, p in r["pairs"].items():
         for name, s in p["sensors"].items():
             print(f"seed {seed} {name:14s} peak ratio {_f(s['peak_ratio'])}  nRMS "
@@ -48,25 +53,29 @@ def run(args):
             print(f"{name:14s} coupled |ratio - 1| to the full mean {_f(v['coupled_max'])} "
                   f"(largest), full scatter {_f(v['full_leave_one_out_max'])}: "
                   f"{verdict_text(v)}")
-        print(_overall(r))
+        print(_scatter_line(r))
     for line in r["warnings"]:
         print(f"WARNING: {line}")
+    if "headline" in r:
+        print(r["headline"])
     print(f"results in {out}; the page: {out / 'report.html'}")
     return 0
 
 
-def _overall(r):
-    """The comparison in one line: where the coupled runs lie outside the full scatter, or
-    that they are within it everywhere; with the per-step speed-up of the same-seed pairs."""
+def _scatter_line(r):
+    """The single-sphere sensors and the damage figures against the full scatter in one
+    line, naming every figure outside it (nRMS and peak alike); with the per-step speed-up of
+    the same-seed pairs. The verdict is the yardstick's headline, printed last."""
     w = r["ensemble"]["within_full_scatter"]
-    verdicts = {**{k: v["nrms"] for k, v in w["sensors"].items()}, **w.get("damage", {})}
+    verdicts = {**{f"{k} {s}": v[s] for k, v in w["sensors"].items() for s in ("nrms", "peak")},
+                **w.get("damage", {})}
     outside = [k for k, v in verdicts.items() if not v["within"]]
     speed = [p["speedup_per_step"] for p in r["pairs"].values()]
     cost = (f"; speed-up per step {min(speed):.2f}-{max(speed):.2f} (the runs' own wall "
             f"times)" if speed else "")
-    if outside:
-        return f"verdict: OUTSIDE the full scatter on {', '.join(outside)}{cost}"
-    return f"verdict: within the full scatter on all {len(verdicts)} figures{cost}"
+    where = (f"OUTSIDE on {', '.join(outside)}" if outside
+             else f"within on all {len(verdicts)} figures")
+    return f"sensors (one sphere each) and damage against the full scatter: {where}{cost}"
 
 
 def _f(x):

@@ -1,0 +1,143 @@
+"""The yardstick: coupled slab runs judged against full ones on the quantities of interest
+(cases.slab.quantities) by an equivalence test whose margins are stated before the runs
+(orchestrator.equivalence). For each judged QoI:
+- peak: its extreme over the compared window in the QoI's sense (quantities.peak_index: the
+  largest descent of the impactor and of the slab, the largest contact force and
+  penetration, the largest magnitude of the reaction), each member's, as a magnitude;
+- peak_time: the time of that peak;
+- history: the whole window, on the common time base of every member.
+Each is "equivalent", "not equivalent" or "cannot judge" (the members' spread too wide for the
+margin: with how many members it could). A QoI whose extreme is the window's last sample in
+any member is "not judged": the window cut the response before its peak, and nothing about
+the event can be read from it. The same-seed members share the DE zone's packing: the test
+pairs them where two pairs or more exist."""
+import numpy as np
+
+from cases.slab.quantities import peak_index
+from orchestrator import ensemble, equivalence
+
+# the QoIs judged and their statistics (the impactor's velocity peaks at its first sample,
+# the impact speed: its history alone is judged); the rest of the profile is recorded and
+# plotted, not judged (one verdict per place the engineer reads: the centre, and either side)
+JUDGED = {
+    "impactor_z": ("peak", "peak_time", "history"),
+    "impactor_vz": ("history",),
+    "contact_force": ("peak", "peak_time", "history"),
+    "penetration": ("peak", "peak_time", "history"),
+    "reaction": ("peak", "peak_time", "history"),
+    "deflection_x1.25": ("peak", "peak_time", "history"),
+    "deflection_x0.75": ("peak", "peak_time", "history"),
+    "deflection_x1.75": ("peak", "peak_time", "history"),
+}
+STATISTICS = ("peak", "peak_time", "history")
+NOT_JUDGED = "not judged"
+
+
+def margins(value=None):
+    """The margins of the three statistics: equivalence.MARGINS, or `value` for all (checked:
+    finite and > 0)."""
+    if value is None:
+        return dict(equivalence.MARGINS)
+    equivalence.check_margin(value)
+    return {s: float(value) for s in STATISTICS}
+
+
+def check_members(n_full, n_coupled, n_pairs):
+    """The test needs two same-seed pairs, or two members of each model."""
+    if n_pairs < 2 and (n_full < 2 or n_coupled < 2):
+        raise ValueError(f"the equivalence test needs 2 same-seed pairs or 2 members of each "
+                         f"model: got {n_full} full, {n_coupled} coupled, {n_pairs} pairs")
+
+
+def judge(full, coupled, margin=None):
+    """Judge the QoIs of the members `full`, `coupled` ({seed: (t, names, values (n_times,
+    n_qoi))}) with the margins of `margins(margin)`. Returns {"margins", "window_s",
+    "members": {"full", "coupled", "pairs"}, "qoi": {name: {statistic: result}}} with the
+    results of equivalence.scalar / .history, or {"verdict": "not judged", "last_sample":
+    [labels]} for each statistic of a QoI cut by the window."""
+    m = margins(margin)
+    pairs = sorted(full.keys() & coupled.keys())
+    check_members(len(full), len(coupled), len(pairs))
+    t = ensemble.common_time_base((t, v) for t, _, v in [*full.values(), *coupled.values()])
+    out = {"margins": m, "window_s": [float(t[0]), float(t[-1])],
+           "members": {"full": sorted(full), "coupled": sorted(coupled), "pairs": pairs},
+           "qoi": {}}
+    for name, statistics in JUDGED.items():
+        h = {side: {s: _column(t, run, name) for s, run in members.items()}
+             for side, members in (("full", full), ("coupled", coupled))}
+        k = {side: {s: peak_index(name, x) for s, x in h[side].items()} for side in h}
+        cut = [f"{side} {s}" for side in h for s, i in sorted(k[side].items())
+               if i == len(t) - 1]
+        if cut:
+            out["qoi"][name] = {s: {"verdict": NOT_JUDGED, "last_sample": cut}
+                                for s in statistics}
+            continue
+        figures = {"peak": lambda side: {s: float(abs(x[k[side][s]]))
+                                         for s, x in h[side].items()},
+                   "peak_time": lambda side: {s: float(t[k[side][s]]) for s in h[side]}}
+        out["qoi"][name] = {
+            s: (equivalence.history(h["full"], h["coupled"], m[s]) if s == "history" else
+                equivalence.scalar(figures[s]("full"), figures[s]("coupled"), m[s]))
+            for s in statistics}
+    return out
+
+
+def _column(t, run, name):
+    """The QoI `name` of `run` (t, names, values) at the times `t`, its unmeasured samples
+    (NaN: cases.slab.quantities) left out of the interpolation."""
+    times, names, values = run
+    x = values[:, names.index(name)]
+    ok = np.isfinite(x)
+    return np.interp(t, times[ok], x[ok])
+
+
+def failures(judgement):
+    """{"not equivalent": [...], "cannot judge": [...], "not judged": [...]} of
+    "QoI statistic" labels, and the number of statistics judged equivalent."""
+    out = {"not equivalent": [], "cannot judge": [], NOT_JUDGED: []}
+    equivalent = 0
+    for name, stats in judgement["qoi"].items():
+        for s, r in stats.items():
+            if r["verdict"] == "equivalent":
+                equivalent += 1
+            else:
+                out[r["verdict"]].append(f"{name} {s}")
+    return out, equivalent
+
+
+def _named(kind, labels):
+    """The labels a headline names: a QoI cut by the window once, not once per statistic."""
+    if kind != NOT_JUDGED:
+        return labels
+    return list(dict.fromkeys(label.rsplit(" ", 1)[0] for label in labels))
+
+
+def headline(judgement):
+    """The judgement in one line, naming every statistic that is not equivalent."""
+    fails, equivalent = failures(judgement)
+    total = equivalent + sum(len(v) for v in fails.values())
+    fails = {kind: _named(kind, labels) for kind, labels in fails.items()}
+    m = judgement["margins"]
+    parts = [f"equivalent on {equivalent} of {total} (margins: peak {m['peak']:.0%}, time "
+             f"{m['peak_time']:.0%}, history {m['history']:.0%} of the full mean)"]
+    for kind, labels in fails.items():
+        if labels:
+            parts.append(f"{'NOT equivalent' if kind == 'not equivalent' else kind}: "
+                         f"{', '.join(_label(judgement, x) for x in labels)}")
+    return "yardstick: " + "; ".join(parts)
+
+
+def _label(judgement, label):
+    """A failing statistic with what it measured: the difference and its interval, or the
+    members it needs, or the members whose extreme is the window's end."""
+    if label in judgement["qoi"]:
+        return f"{label} (extreme at the window's end)"
+    name, s = label.rsplit(" ", 1)
+    r = judgement["qoi"][name][s]
+    if r["verdict"] == "cannot judge":
+        need = r.get("members_needed")
+        return f"{label} (needs {'more than 1000' if need is None else need} members)"
+    if s == "history":
+        return f"{label} ({r['difference']:.1%}, ≤ {r['upper']:.1%})"
+    lo, hi = r["interval"]
+    return f"{label} ({r['difference']:+.1%} [{lo:+.1%}, {hi:+.1%}])"
