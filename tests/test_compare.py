@@ -300,3 +300,22 @@ def test_a_peak_at_the_window_s_last_sample_is_warned(tmp_path, capsys):
     assert r["sensors"]["de_zone"]["peak_is_last_sample"] == []     # zero: its peak is t = 0
     assert len(r["warnings"]) == 1 and "are the last sample (t = 1 ms)" in r["warnings"][0]
     assert "WARNING: seed 1: the peaks of under_impact (full, coupled)" in capsys.readouterr().out
+
+
+def test_a_window_that_ends_before_the_impact_is_warned(tmp_path):
+    """SHAPE's deflection rises back to 0 at the window's end: the event is over in every
+    member; full seed 2's centre still sinking at the end: the window is too short for it."""
+    r = judged(tmp_path, dict(FULL))
+    assert not any("ends before the impact" in w for w in r["warnings"])
+    assert set(r["judgement"]["event_end_s"]["full"]) == {"1", "2", "3", "4"}
+    values = qoi_shape()
+    values[:, QOI.index("deflection_x1.25")] = -T / T[-1]
+    write_quantities(tmp_path / "full" / "seed-2" / QUANTITIES, QOI, T, values)
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "coupled"), "--out",
+                 str(tmp_path / "short")]) == 0
+    r = json.loads((tmp_path / "short" / "comparison.json").read_text())
+    assert r["judgement"]["event_end_s"]["full"]["2"] is None
+    assert [w for w in r["warnings"] if "ends before the impact" in w] == [
+        "the window (1 ms) ends before the impact does in full seed 2 (the impactor stopped, "
+        "rebounded or through, the slab's centre risen back by half): the QoIs judge part of "
+        "the event (run more --steps)"]

@@ -309,3 +309,26 @@ def test_a_qoi_peaks_in_its_sense():
     assert peak_index("penetration", [-2.0, 3.0, 9.0, 8.0]) == 2
     assert peak_index("reaction", [np.nan, 5.0, -9.0, 4.0]) == 2
     assert peak_index("contact_force", [np.nan, 0.0, 7.0, -9.0]) == 2
+
+
+def test_the_event_ends_when_the_impactor_stopped_and_the_slab_rebounded():
+    """Synthetic QoIs: the impactor's velocity rises linearly from -10 m/s and passes -0.1 m/s
+    (STOPPED × 10) at t = 0.99 ms; the centre sinks as -sin(πt/T) (T = 4 ms) and has risen
+    back by half its depth at 5T/6; perforation ends the impactor's part at once; a record
+    that stops before either: None."""
+    from cases.slab.quantities import NAMES, event_end
+    t = np.linspace(0.0, 4e-3, 4001)
+    q = np.zeros((len(t), len(NAMES)))
+    q[:, NAMES.index("impactor_vz")] = -10.0 + 1e4 * t
+    q[:, NAMES.index("penetration")] = 0.1
+    q[:, NAMES.index("deflection_x1.25")] = -np.sin(np.pi * t / 4e-3)
+    assert event_end(t, q) == pytest.approx(5 / 6 * 4e-3, abs=1.5e-6)
+    assert event_end(t[:3000], q[:3000]) is None           # not risen by half yet
+    slow = q.copy()
+    slow[:, NAMES.index("impactor_vz")] = -10.0 + 1e3 * t  # still -6 m/s at the end
+    assert event_end(t, slow) is None
+    slow[2000:, NAMES.index("penetration")] = 0.3          # perforated at t = 2 ms
+    slow[:, NAMES.index("deflection_x1.25")] = -np.sin(np.pi * (t - 2e-3) / 4e-3) * (t > 2e-3)
+    assert event_end(t, slow) is None                      # the centre still sinks
+    slow[:, NAMES.index("deflection_x1.25")] = -np.sin(np.pi * t / 2.2e-3)
+    assert event_end(t, slow) == t[2000]                   # risen past half by then

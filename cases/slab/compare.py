@@ -195,6 +195,8 @@ def compare(full, coupled, out, verdict=False, margin=None):
     if verdict or judged(full, coupled):
         result["judgement"] = judge.judge(_quantities(full), _quantities(coupled), margin)
         result["headline"] = judge.headline(result["judgement"])
+        short = judge.window_warning(result["judgement"])
+        result["warnings"] += [short] if short else []
         _plot_quantities(out / "quantities.png", full, coupled)
     if verdict or len(full) >= verdicts.MIN_FULL_MEMBERS:
         result["ensemble"] = _ensemble(full, coupled, names, out)

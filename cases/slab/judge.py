@@ -13,7 +13,7 @@ the event can be read from it. The same-seed members share the DE zone's packing
 pairs them where two pairs or more exist."""
 import numpy as np
 
-from cases.slab.quantities import peak_index
+from cases.slab.quantities import event_end, peak_index
 from orchestrator import ensemble, equivalence
 
 # the QoIs judged and their statistics (the impactor's velocity peaks at its first sample,
@@ -61,6 +61,8 @@ def judge(full, coupled, margin=None):
     t = ensemble.common_time_base((t, v) for t, _, v in [*full.values(), *coupled.values()])
     out = {"margins": m, "window_s": [float(t[0]), float(t[-1])],
            "members": {"full": sorted(full), "coupled": sorted(coupled), "pairs": pairs},
+           "event_end_s": {side: {s: event_end(*_within(t, run)) for s, run in members.items()}
+                           for side, members in (("full", full), ("coupled", coupled))},
            "qoi": {}}
     for name, statistics in JUDGED.items():
         h = {side: {s: _column(t, run, name) for s, run in members.items()}
@@ -80,6 +82,25 @@ def judge(full, coupled, margin=None):
                 equivalence.scalar(figures[s]("full"), figures[s]("coupled"), m[s]))
             for s in statistics}
     return out
+
+
+def _within(t, run):
+    """(times, values) of `run` (t, names, values) inside the compared window `t`."""
+    times, _, values = run
+    keep = times <= t[-1] * (1 + 1e-12)
+    return times[keep], values[keep]
+
+
+def window_warning(judgement):
+    """One line if the window ends before the event in a full member (event_end: the
+    impactor stopped, rebounded or through, and the slab's centre risen back), else None."""
+    short = [str(s) for s, e in judgement["event_end_s"]["full"].items() if e is None]
+    if not short:
+        return None
+    return (f"the window ({1e3 * judgement['window_s'][1]:.3g} ms) ends before the impact does "
+            f"in full seed{'s' if len(short) > 1 else ''} {', '.join(short)} (the impactor "
+            f"stopped, rebounded or through, the slab's centre risen back by half): the QoIs "
+            f"judge part of the event (run more --steps)")
 
 
 def _column(t, run, name):

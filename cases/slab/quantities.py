@@ -179,6 +179,28 @@ class Quantities:
                 "perforated": bool(last["penetration"] > SLAB[2]), "peaks": peaks}
 
 
+STOPPED = 0.01       # × the impact speed: an impactor this slow (or rising) has stopped
+REBOUND = 0.5        # the slab has rebounded once its centre has risen by this × its descent
+
+
+def event_end(times, values):
+    """When the impact is over in the run of QoI `values` (n_times, NAMES) at `times`: the
+    impactor has stopped (its centre's descent slower than STOPPED × the impact speed),
+    rebounded or perforated (penetration past the slab's thickness), and after that the
+    slab's centre (deflection_x1.25) has passed its deepest point so far and risen back by
+    REBOUND × that depth. None where the record ends before."""
+    q = {name: np.asarray(values, float)[:, k] for k, name in enumerate(NAMES)}
+    speed = abs(q["impactor_vz"][0])
+    over = (q["impactor_vz"] >= -STOPPED * speed) | (q["penetration"] > SLAB[2])
+    if not over.any():
+        return None
+    first = int(np.argmax(over))
+    d = q["deflection_x1.25"]
+    deepest = np.minimum.accumulate(d)
+    risen = ((deepest < 0) & (d - deepest >= -REBOUND * deepest))[first:]
+    return float(times[first + int(np.argmax(risen))]) if risen.any() else None
+
+
 def _averaging(patch, weight, n):
     """(n × points) sparse matrix: row p the mean over its points."""
     import scipy.sparse as sp
