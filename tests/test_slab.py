@@ -316,13 +316,16 @@ def test_the_event_ends_when_the_impactor_stopped_and_the_slab_rebounded():
     (STOPPED × 10) at t = 0.99 ms; the centre sinks as -sin(πt/T) (T = 4 ms) and has risen
     back by half its depth at 5T/6; perforation ends the impactor's part at once; a record
     that stops before either: None."""
-    from cases.slab.quantities import NAMES, event_end
+    from cases.slab.quantities import NAMES, event_ends
     t = np.linspace(0.0, 4e-3, 4001)
     q = np.zeros((len(t), len(NAMES)))
     q[:, NAMES.index("impactor_vz")] = -10.0 + 1e4 * t
     q[:, NAMES.index("penetration")] = 0.1
     q[:, NAMES.index("deflection_x1.25")] = -np.sin(np.pi * t / 4e-3)
-    assert event_end(t, q) == pytest.approx(5 / 6 * 4e-3, abs=1.5e-6)
+    ends = event_ends(t, q)
+    assert ends["impactor_s"] == pytest.approx(0.99e-3, abs=1.5e-6)
+    assert ends["slab_s"] == pytest.approx(5 / 6 * 4e-3, abs=1.5e-6)
+    event_end = lambda t, q: event_ends(t, q)["slab_s"]
     assert event_end(t[:3000], q[:3000]) is None           # not risen by half yet
     slow = q.copy()
     slow[:, NAMES.index("impactor_vz")] = -10.0 + 1e3 * t  # still -6 m/s at the end

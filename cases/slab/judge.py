@@ -13,7 +13,7 @@ the event can be read from it. The same-seed members share the DE zone's packing
 pairs them where two pairs or more exist."""
 import numpy as np
 
-from cases.slab.quantities import event_end, peak_index
+from cases.slab.quantities import event_ends, peak_index
 from orchestrator import ensemble, equivalence
 
 # the QoIs judged and their statistics (the impactor's velocity peaks at its first sample,
@@ -61,7 +61,7 @@ def judge(full, coupled, margin=None):
     t = ensemble.common_time_base((t, v) for t, _, v in [*full.values(), *coupled.values()])
     out = {"margins": m, "window_s": [float(t[0]), float(t[-1])],
            "members": {"full": sorted(full), "coupled": sorted(coupled), "pairs": pairs},
-           "event_end_s": {side: {s: event_end(*_within(t, run)) for s, run in members.items()}
+           "event_end_s": {side: {s: event_ends(*_within(t, run)) for s, run in members.items()}
                            for side, members in (("full", full), ("coupled", coupled))},
            "qoi": {}}
     for name, statistics in JUDGED.items():
@@ -92,15 +92,21 @@ def _within(t, run):
 
 
 def window_warning(judgement):
-    """One line if the window ends before the event in a full member (event_end: the
-    impactor stopped, rebounded or through, and the slab's centre risen back), else None."""
-    short = [str(s) for s, e in judgement["event_end_s"]["full"].items() if e is None]
-    if not short:
+    """One line if the window ends before the event in a full member (quantities.event_ends:
+    the impactor stopped, rebounded or through, then the slab's centre risen back), else
+    None."""
+    ends = judgement["event_end_s"]["full"]
+    short = {part: [str(s) for s, e in ends.items() if e[f"{part}_s"] is None]
+             for part in ("impactor", "slab")}
+    if not short["slab"]:
         return None
-    return (f"the window ({1e3 * judgement['window_s'][1]:.3g} ms) ends before the impact does "
-            f"in full seed{'s' if len(short) > 1 else ''} {', '.join(short)} (the impactor "
-            f"stopped, rebounded or through, the slab's centre risen back by half): the QoIs "
-            f"judge part of the event (run more --steps)")
+    what = (f"the impactor has not stopped, rebounded or gone through in full seeds "
+            f"{', '.join(short['impactor'])}" if short["impactor"] else
+            "the impactor has stopped, rebounded or gone through in every full member")
+    return (f"the window ({1e3 * judgement['window_s'][1]:.3g} ms) ends before the impact does: "
+            f"{what}; the slab's centre has not risen back by half its depth since then in "
+            f"full seeds {', '.join(short['slab'])} (run more --steps; a slab broken under the "
+            f"impact never rises)")
 
 
 def _column(t, run, name):

@@ -183,22 +183,24 @@ STOPPED = 0.01       # × the impact speed: an impactor this slow (or rising) ha
 REBOUND = 0.5        # the slab has rebounded once its centre has risen by this × its descent
 
 
-def event_end(times, values):
-    """When the impact is over in the run of QoI `values` (n_times, NAMES) at `times`: the
-    impactor has stopped (its centre's descent slower than STOPPED × the impact speed),
-    rebounded or perforated (penetration past the slab's thickness), and after that the
-    slab's centre (deflection_x1.25) has passed its deepest point so far and risen back by
-    REBOUND × that depth. None where the record ends before."""
+def event_ends(times, values):
+    """When the impact is over in the run of QoI `values` (n_times, NAMES) at `times`:
+    {"impactor_s", "slab_s"}, when the impactor has stopped (its centre's descent slower
+    than STOPPED × the impact speed), rebounded or perforated (penetration past the slab's
+    thickness); and when, after that, the slab's centre (deflection_x1.25) has passed its
+    deepest point so far and risen back by REBOUND × that depth. None where the record ends
+    before (a slab broken under the impact, whose centre's spheres fly off, never rises)."""
     q = {name: np.asarray(values, float)[:, k] for k, name in enumerate(NAMES)}
     speed = abs(q["impactor_vz"][0])
     over = (q["impactor_vz"] >= -STOPPED * speed) | (q["penetration"] > SLAB[2])
     if not over.any():
-        return None
+        return {"impactor_s": None, "slab_s": None}
     first = int(np.argmax(over))
     d = q["deflection_x1.25"]
     deepest = np.minimum.accumulate(d)
     risen = ((deepest < 0) & (d - deepest >= -REBOUND * deepest))[first:]
-    return float(times[first + int(np.argmax(risen))]) if risen.any() else None
+    return {"impactor_s": float(times[first]),
+            "slab_s": float(times[first + int(np.argmax(risen))]) if risen.any() else None}
 
 
 def _averaging(patch, weight, n):
