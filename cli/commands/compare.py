@@ -54,6 +54,11 @@ def run(args):
                   f"(largest), full scatter {_f(v['full_leave_one_out_max'])}: "
                   f"{verdict_text(v)}")
         print(_scatter_line(r))
+    if "judgement" in r:
+        for side, ends in r["judgement"]["event_end_s"].items():
+            print(f"event ends, {side}: " + "; ".join(
+                f"seed {s} impactor {_ms(e['impactor_s'])}, slab {_ms(e['slab_s'])}"
+                for s, e in ends.items()))
     for line in r["warnings"]:
         print(f"WARNING: {line}")
     if "headline" in r:
@@ -80,3 +85,7 @@ def _scatter_line(r):
 
 def _f(x):
     return "n/a" if x is None else f"{x:.3f}"
+
+
+def _ms(t):
+    return "not within the window" if t is None else f"{1e3 * t:.2f} ms"
