@@ -305,8 +305,10 @@ class Model:
         return d if self.sensor_order is None else d[self.sensor_order]
 
     def quantities(self, last=None):
-        """What the run records of its quantities of interest (a case's: `names`, `before()`,
-        `sample()`), or None; `last`: those of the model this one was grown from."""
+        """What the run records of its quantities of interest, or None: a case's object with
+        `names`, `sample()` (their values now), `state()` / `restore(state)` (what a
+        checkpoint keeps), `definitions()` and `end_figures(times, values)` (what summary.json
+        records); `last`: those of the model this one was grown from."""
         return None
 
     def energy(self):

@@ -8,6 +8,7 @@ import sys
 import numpy as np
 import pytest
 
+from orchestrator.run.outputs import QUANTITIES, read_quantities
 from yade_side.distributed import owners
 
 STEPS = 150     # the impactor hits at step ~18: links across the slices load, crack, break
@@ -44,6 +45,11 @@ def test_three_ranks_give_the_serial_run_to_round_off(tmp_path):
     a, b = (np.loadtxt(f / "sensors.csv", delimiter=",", skiprows=1) for f in (serial, mpi))
     assert a.shape == b.shape
     assert np.abs(a - b).max() <= 1e-6 * np.abs(a[:, 1:]).max()
+    # the quantities of interest too, each to 1e-6 of its peak (the forces: momentum
+    # differences of the same round-off, over a sample interval)
+    qa, qb = (read_quantities(f / QUANTITIES)[2] for f in (serial, mpi))
+    assert qa.shape == qb.shape and np.array_equal(np.isnan(qa), np.isnan(qb))
+    assert (np.nanmax(np.abs(qa - qb), axis=0) <= 1e-6 * np.nanmax(np.abs(qa), axis=0)).all()
     sa, sb = (json.loads((f / "summary.json").read_text()) for f in (serial, mpi))
     assert sb["spec"]["mpi"] == 3
     assert sa["n_spheres"] == sb["n_spheres"]
