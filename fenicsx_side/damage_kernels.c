@@ -306,11 +306,12 @@ void split_cells(int64_t m, int64_t dofs, const int64_t *hit, const int64_t *cel
 
 /* The energy the damage increments dissipate: Σ over the k growing cells c = grow[i] whose
  * damage moved, at place j = at[i] of the split (w, sig, pos: (6, m); u_c, rest: (m, dofs)), of
- * ½ ΔD u_c·K_rest u_c + V_c (½ σ̄⁺:w ΔD_t + ½ σ̄⁻:w ΔD_c). */
+ * ½ ΔD u_c·K_rest u_c + V_c (½ σ̄⁺:w ΔD_t + ½ σ̄⁻:w ΔD_c); each cell's term also added to
+ * cells[c] (one per cell of the model). */
 double dissipation(int64_t k, int64_t m, int64_t dofs, const int64_t *grow, const int64_t *at,
                    const double *step, const double *step_t, const double *step_c,
                    const double *u_c, const double *rest, const double *w, const double *sig,
-                   const double *pos, const double *volume)
+                   const double *pos, const double *volume, double *cells)
 {
     double total = 0;
     for (int64_t i = 0; i < k; i++) {
@@ -323,7 +324,9 @@ double dissipation(int64_t k, int64_t m, int64_t dofs, const int64_t *grow, cons
             yt += f * p * e;
             yc += f * (sig[q * m + j] - p) * e;
         }
-        total += 0.5 * step[i] * ur + volume[grow[i]] * (yt * step_t[i] + yc * step_c[i]);
+        double term = 0.5 * step[i] * ur + volume[grow[i]] * (yt * step_t[i] + yc * step_c[i]);
+        cells[grow[i]] += term;
+        total += term;
     }
     return total;
 }

@@ -20,7 +20,9 @@ class); any other cell gets its own when it first damages.
 Uniform strains, and with them the law's curves in a cell, are exact. With a weight α (the
 consistent bridging weighting) the means are α's, as in K, in the cells it touches. The
 strain energy is ½ u·f; the energy dissipated is Σ_c V_c (½ σ̄⁺:ε̄ ΔD_t + ½ σ̄⁻:ε̄ ΔD_c)
-+ ½ u_cᵀ K_rest,c u_c ΔD (energy release rates times the increments).
++ ½ u_cᵀ K_rest,c u_c ΔD (energy release rates times the increments), each cell's term kept
+per cell too (`dissipated_cells`: what yade_side.cracking is per CPM link, to sum both on one
+grid).
 
 Serial only: a cell's strain needs its ghost nodes, which this model does not exchange.
 """
@@ -51,10 +53,14 @@ class DamageModel(ElasticModel):
     Per owned cell: kappa, kappa_c (histories of the tension and compression equivalent
     strains, 0 before any strain), eps_f, eps_fc (their softening strains, NaN before that
     damage starts), damage_t, damage_c, damage (the larger of the two: a cell is broken when
-    either is), cell_volume, cell_centres; `dissipated` (J), the energy damage has
-    dissipated."""
+    either is), cell_volume, cell_centres, dissipated_cells (J, what each cell's damage has
+    dissipated: α-weighted, as the energy); `dissipated` (J), the energy damage has dissipated:
+    the sum of dissipated_cells (to rounding) and, after take_state, of what the cells the FE
+    part gave up had dissipated (their cells are gone: the DE zone's links made in their place
+    are damaged from the field's strain, and yade_side.cracking counts their energy)."""
     carries_damage = True
-    _STATE = ("kappa", "kappa_c", "eps_f", "eps_fc", "damage_t", "damage_c", "damage")
+    _STATE = ("kappa", "kappa_c", "eps_f", "eps_fc", "damage_t", "damage_c", "damage",
+              "dissipated_cells")
 
     def __init__(self, msh, law, rho, dirichlet=(), quadrature_degree=2, weight=None):
         super().__init__(msh, law.young, law.poisson, rho, dirichlet, quadrature_degree, weight)
@@ -67,7 +73,7 @@ class DamageModel(ElasticModel):
         self.kappa, self.kappa_c = np.zeros(n), np.zeros(n)
         self.eps_f, self.eps_fc = np.full(n, np.nan), np.full(n, np.nan)
         self.damage_t, self.damage_c, self.damage = np.zeros(n), np.zeros(n), np.zeros(n)
-        self.dissipated = 0.0
+        self.dissipated, self.dissipated_cells = 0.0, np.zeros(n)
         self._force = np.zeros(self.ndof)
         self._cell_dofs = (3 * self.cell_nodes[:, :, None]
                            + np.arange(3, dtype=np.int64)).reshape(n, -1)
@@ -236,7 +242,8 @@ class DamageModel(ElasticModel):
             at = self._position[grow]
             self.dissipated += library().dissipation(count, hit.size, u_c.shape[1], grow, at,
                                                      step[2], step[0], step[1], u_c, rest_force,
-                                                     w, sig, pos, self._weighted_volume)
+                                                     w, sig, pos, self._weighted_volume,
+                                                     self.dissipated_cells)
         return split
 
     def split(self, eps=None):

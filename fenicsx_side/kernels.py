@@ -32,7 +32,7 @@ SIGNATURES = {
     "grow_damage": (_N, _I, _D, _D, _D, _D, _F, _D, _D, _D, _D),
     "cell_strains": (_N, _N, _I, _D, _D, _D),
     "split_cells": (_N, _N, _I, _I, _D, _D, _F, _F, _D, _D, _D),
-    "dissipation": (_N, _N, _N, _I, _I, _D, _D, _D, _D, _D, _D, _D, _D, _D),
+    "dissipation": (_N, _N, _N, _I, _I, _D, _D, _D, _D, _D, _D, _D, _D, _D, _D),
     "lost_forces": (_N, _N, _I, _I, _D, _D, _D, _D, _D, _D, _I, _D, _I, _D, _D),
 }
 

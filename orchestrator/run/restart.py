@@ -60,7 +60,8 @@ class Record:
 
 # what a checkpoint of an earlier version lacks
 EARLIER = {"fe_peak": "the FE's peak stress", "quantities": "the quantities of interest",
-           "quantity_state": "the quantities' state"}
+           "quantity_state": "the quantities' state",
+           "fe_history_dissipated_cells": "the FE cells' dissipated energy"}
 
 
 def add_splits(a, b):
@@ -186,7 +187,7 @@ def load(out, model, meta, quantities=False):
     needed += [f"de_history_{k}" for k in model.de_history()]
     needed += ["quantities", "quantity_state"] if quantities else []
     missing = [k for k in needed if k not in state]
-    if missing and set(missing) <= {"fe_peak", "quantities", "quantity_state"}:
+    if missing and set(missing) <= set(EARLIER):
         raise ValueError(f"{folder / 'state.npz'}: a checkpoint of an earlier version, which did "
                          f"not record {' nor '.join(EARLIER[k] for k in missing)}: run it again "
                          f"from the start")
