@@ -306,9 +306,11 @@ class Model:
 
     def quantities(self, last=None):
         """What the run records of its quantities of interest, or None: a case's object with
-        `names`, `sample()` (their values now), `state()` / `restore(state)` (what a
-        checkpoint keeps), `definitions()` and `end_figures(times, values)` (what summary.json
-        records); `last`: those of the model this one was grown from."""
+        `names`, `sample()` (their values now), `output()` (at each output frame),
+        `state()` / `restore(state)` (what a checkpoint keeps, {name: array}),
+        `definitions()` and `end_figures(times, values)` (what summary.json records),
+        `arrays()` (what damage.npz adds); `last`: those of the model this one was grown
+        from."""
         return None
 
     def energy(self):

@@ -218,19 +218,30 @@ def plan_grid(positions, values, weights, lo, hi, cell):
     """Plan view (x, y) of `values` on a grid of square cells of side `cell` over [lo, hi]
     (2 corners, x and y): the `weights`-weighted mean per cell, NaN in empty cells.
     Returns (grid (n_x, n_y), x centres, y centres)."""
-    lo, hi = np.asarray(lo, float)[:2], np.asarray(hi, float)[:2]
-    if not cell > 0 or np.any(hi <= lo):
-        raise ValueError(f"map grid: cell {cell!r} over {lo.tolist()}–{hi.tolist()}")
-    n = np.maximum(np.ceil((hi - lo) / cell - 1e-9).astype(int), 1)
-    ij = np.clip(((np.asarray(positions, float)[:, :2] - lo) // cell).astype(int), 0, n - 1)
-    flat = ij[:, 0] * n[1] + ij[:, 1]
+    flat, n, centres = _plan_cells(positions, lo, hi, cell)
     w = np.asarray(weights, float)
     num = np.bincount(flat, w * np.asarray(values, float), n.prod())
     den = np.bincount(flat, w, n.prod())
     with np.errstate(invalid="ignore", divide="ignore"):
         grid = np.where(den > 0, num / np.where(den > 0, den, 1), np.nan).reshape(n)
-    centres = [lo[a] + cell * (np.arange(n[a]) + 0.5) for a in (0, 1)]
     return grid, centres[0], centres[1]
+
+
+def plan_sum(positions, values, lo, hi, cell):
+    """plan_grid's grid, of the sum of `values` per cell (0 in empty cells)."""
+    flat, n, centres = _plan_cells(positions, lo, hi, cell)
+    return (np.bincount(flat, np.asarray(values, float), n.prod()).reshape(n), centres[0],
+            centres[1])
+
+
+def _plan_cells(positions, lo, hi, cell):
+    """(the flat cell index of each position, cells along x and y, cell centres)."""
+    lo, hi = np.asarray(lo, float)[:2], np.asarray(hi, float)[:2]
+    if not cell > 0 or np.any(hi <= lo):
+        raise ValueError(f"map grid: cell {cell!r} over {lo.tolist()}–{hi.tolist()}")
+    n = np.maximum(np.ceil((hi - lo) / cell - 1e-9).astype(int), 1)
+    ij = np.clip(((np.asarray(positions, float)[:, :2] - lo) // cell).astype(int), 0, n - 1)
+    return ij[:, 0] * n[1] + ij[:, 1], n, [lo[a] + cell * (np.arange(n[a]) + 0.5) for a in (0, 1)]
 
 
 def mean_damage_maps(full, coupled, lo, hi, cell):

@@ -57,3 +57,18 @@ def plot_mean_damage_maps(path, maps, n_full, n_coupled, labels=("full", "couple
                                                      else f"{corr:.3f}"))
     fig.tight_layout()
     save_figure(fig, path)
+
+
+def plot_plan_maps(path, x, y, maps, unit, title):
+    """Plan views side by side of grids {label: (n_x, n_y)} on the cell centres x, y, on one
+    colour scale."""
+    plt = _pyplot()
+    top = max(float(np.nanmax(g)) for g in maps.values()) or 1.0
+    fig, axes = plt.subplots(1, len(maps), figsize=(6 * len(maps), 5))
+    for ax, (label, grid) in zip(np.atleast_1d(axes), maps.items()):
+        image = ax.pcolormesh(x, y, grid.T, cmap="inferno_r", vmin=0, vmax=top, shading="nearest")
+        ax.set(xlabel="x (m)", ylabel="y (m)", title=label, aspect="equal")
+        fig.colorbar(image, ax=ax, shrink=0.8, label=unit)
+    fig.suptitle(title)
+    fig.tight_layout()
+    save_figure(fig, path)

@@ -21,11 +21,13 @@ def member(folder, model, seed, amplitude, scale="small", s_per_step=1.0, volume
     folder.mkdir(parents=True)
     spec = {"scale": scale, "radius": 0.025, "impactor_speed": 40.0, "impactor_side": 0.3,
             "impactor_gap": 0.002, "steps": 100, "dt_safety": 0.15, "de_zone": 0.6,
-            "full_width": True, "layers": 3, "seed": seed, "elastic_outside": False}
+            "full_width": True, "layers": 3, "seed": seed, "elastic_outside": False,
+            "fe_ratio": 3.0}
     write_json(folder / "summary.json", {
         "model": model, "spec": spec, "s_per_step": s_per_step, "n_spheres": 10 if model ==
         "full" else 6, "damage": {"damaged_volume_m3": volume, "broken_links": 10 * volume},
-        "quantities": Quantities.definitions()})
+        "quantities": {**Quantities.definitions(),
+                       "cracking_energy": {"slab_J": 100.0 * amplitude}}})
     h = np.zeros((len(T), len(NAMES), 3))
     h[:, :, 2] = amplitude * SHAPE[:, None]
     write_sensors(folder / "sensors.csv", NAMES, T * end / T[-1], h)
@@ -35,7 +37,10 @@ def member(folder, model, seed, amplitude, scale="small", s_per_step=1.0, volume
     save_npz(folder / "damage.npz", times=np.array([0.0, T[-1]]),
              damage=np.array([np.zeros(n), damage]), positions=np.random.default_rng(seed)
              .uniform((0, 0, 0), (2.5, 2.0, 0.28), (n, 3)), radius=np.full(n, 0.025),
-             in_de_zone=np.arange(n) < 4, slab_index=np.arange(n))
+             in_de_zone=np.arange(n) < 4, slab_index=np.arange(n),
+             # the cracking energy: 100 × amplitude J, split over two plan cells
+             crack_points=np.array([[1.2, 1.0, 0.1], [1.3, 1.0, 0.1]]),
+             crack_energy=np.array([75.0, 25.0]) * amplitude, crack_fe=np.zeros(2, bool))
     return folder
 
 
@@ -162,7 +167,11 @@ def test_the_yardstick_finds_a_coupled_ensemble_like_the_full_one_equivalent(tmp
     assert peak["interval"] == pytest.approx([d.mean() - half, d.mean() + half], abs=1e-9)
     assert all(v["verdict"] == "equivalent" for q in r["judgement"]["qoi"].values()
                for v in q.values())
-    assert r["headline"].startswith("yardstick: equivalent on 22 of 22 (margins: peak 10%")
+    assert r["headline"].startswith("yardstick: equivalent on 23 of 23 (margins: peak 10%")
+    crack = r["judgement"]["qoi"]["cracking_energy"]["total"]
+    assert crack["difference"] == pytest.approx(0.01, abs=1e-12)
+    assert r["cracking_map_correlation"] == pytest.approx(1.0)   # both maps 75:25 × a_k
+    assert (tmp_path / "cmp" / "cracking_maps.png").stat().st_size > 0
     out = capsys.readouterr().out
     assert out.strip().splitlines()[-2] == r["headline"]
     assert (tmp_path / "cmp" / "quantities.png").stat().st_size > 0
@@ -180,7 +189,7 @@ def test_the_yardstick_fails_a_biased_ensemble_and_names_every_failure(tmp_path)
         0.2 * np.sqrt(np.mean(SHAPE**2)), abs=1e-9)
     assert q["reaction"]["peak_time"]["verdict"] == "equivalent"
     failed = [f"{n} {s}" for n, v in q.items() for s in v if v[s]["verdict"] != "equivalent"]
-    assert len(failed) == 15 and all(s in ("peak", "history") for f in failed
+    assert len(failed) == 16 and all(s in ("peak", "history", "total") for f in failed
                                      for s in [f.split()[-1]])
     assert all(f in r["headline"] for f in failed) and "NOT equivalent: " in r["headline"]
 

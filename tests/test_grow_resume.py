@@ -129,7 +129,10 @@ def test_a_grown_run_resumed_ends_as_the_run_not_stopped(runs, tmp_path, step):
     assert (np.nanmax(np.abs(qb - qa), axis=0) <= 1e-9 * peak).all()
     da, db = np.load(reference / "damage.npz"), np.load(out / "damage.npz")
     for key in da.files:
-        assert np.allclose(db[key], da[key], rtol=1e-9, atol=1e-12), key   # FE damage 2e-12
+        # FE damage 2e-12; a link's cracking energy within 1e-9 of the largest (3e-11 J on
+        # 0.5 J: its κ carries the states' round-off, which a small energy does not scale)
+        atol = 1e-9 * np.abs(da[key]).max() if key == "crack_energy" else 1e-12
+        assert np.allclose(db[key], da[key], rtol=1e-9, atol=atol), key
     # every frame of the spheres: bit for bit up to the checkpoint, then within round-off
     (t_ref, spheres_ref), (t_out, spheres_out) = (
         zip(*read_series(d / "spheres.pvd")) for d in (reference, out))

@@ -48,6 +48,15 @@ def test_an_fe_that_damages_writes_its_damage_and_counts_it_in_the_damaged_volum
         assert f["damage"].shape == (fe["cells"], 1)
     assert json.loads((runs / "coupled" / "summary.json").read_text())["fe_damage"] is None
     assert (runs / "cmp-damage" / "comparison.json").is_file()
+    # the cracking energy: the FE's cells' sum is its total (no conversion), the links' and
+    # cells' arrays sum to the slab's figure
+    crack = summary["quantities"]["cracking_energy"]
+    assert crack["slab_fe_J"] == pytest.approx(fe["dissipated_J"], rel=1e-12)
+    with np.load(runs / "coupled-damage" / "damage.npz") as z:
+        assert z["crack_energy"].sum() == pytest.approx(crack["slab_J"], rel=1e-12)
+        assert z["crack_energy"][z["crack_fe"]].sum() == pytest.approx(crack["slab_fe_J"],
+                                                                       rel=1e-12)
+    assert crack["slab_links_J"] > 0 and crack["slab_fe_J"] > 0
 
 
 def test_bad_damage_input_is_one_line(tmp_path, capsys):

@@ -193,8 +193,10 @@ def compare(full, coupled, out, verdict=False, margin=None):
         result.update(next(iter(pairs.values())))         # one pair: its figures at the top
     result["warnings"] = last_sample_warnings(pairs)
     if verdict or judged(full, coupled):
-        result["judgement"] = judge.judge(_quantities(full), _quantities(coupled), margin)
+        result["judgement"] = judge.judge(_quantities(full), _quantities(coupled), margin,
+                                          _cracking_totals(full, coupled))
         result["headline"] = judge.headline(result["judgement"])
+        result["cracking_map_correlation"] = _cracking_maps(out, full, coupled)
         short = judge.window_warning(result["judgement"])
         result["warnings"] += [short] if short else []
         _plot_quantities(out / "quantities.png", full, coupled)
@@ -286,6 +288,40 @@ def _matched_damage(f, c):
 
 def _quantities(runs):
     return {s: r.quantities for s, r in runs.items()}
+
+
+def _cracking_totals(full, coupled):
+    """{"cracking_energy": (full, coupled {seed: J})}: the slab's energy dissipated by
+    cracking (cases.slab.quantities), where every run measured it, else {}."""
+    energy = {side: {s: (r.summary["quantities"].get("cracking_energy") or {}).get("slab_J")
+                     for s, r in runs.items()} for side, runs in (("f", full), ("c", coupled))}
+    if any(v is None for side in energy.values() for v in side.values()):
+        return {}
+    return {"cracking_energy": (energy["f"], energy["c"])}
+
+
+def _cracking_maps(out, full, coupled):
+    """cracking_maps.png: the mean energy dissipated by cracking per plan cell of the FE grid
+    (J), full beside coupled (the paper's Fig. 10 in energy), and the two maps' correlation
+    (None without the measure)."""
+    from cases.slab.geometry import plan_cell
+    runs = [*full.values(), *coupled.values()]
+    if any("crack_energy" not in r.damage for r in runs):
+        return None
+    cell = plan_cell(runs[0].spec)
+    mean = lambda members: np.mean([ensemble.plan_sum(r.damage["crack_points"],
+                                                      r.damage["crack_energy"], (0, 0),
+                                                      (2.5, 2.0), cell)[0]
+                                    for r in members.values()], axis=0)
+    f, c = mean(full), mean(coupled)
+    x, y = ensemble.plan_sum(np.zeros((1, 3)), [0.0], (0, 0), (2.5, 2.0), cell)[1:]
+    corr = ensemble.correlation(f.ravel(), c.ravel())
+    from orchestrator.ensemble_plots import plot_plan_maps
+    plot_plan_maps(out / "cracking_maps.png", x, y, {"full": f, _side(coupled.values()): c},
+                   "energy dissipated by cracking per cell (J)",
+                   f"mean of {len(full)} full and {len(coupled)} compared seeds; correlation "
+                   + ("undefined" if corr is None else f"{corr:.3f}"))
+    return corr
 
 
 def _plot_quantities(path, full, coupled):

@@ -51,8 +51,7 @@ def slab_grid(spec):
     """In-plane size h = 0.5/k m closest to fe_ratio × diameter, so that both 2.5 m and 2 m
     are whole numbers of cells; DE zone = the central block of cells nearest de_zone (along x
     only with full_width)."""
-    k = max(1, round(0.5 / (spec.fe_ratio * 2 * spec.radius)))
-    h = 0.5 / k
+    h = plan_cell({"fe_ratio": spec.fe_ratio, "radius": spec.radius})
     n = [round(SLAB[0] / h), round(SLAB[1] / h),
          max(1, round(SLAB[2] / (spec.fe_ratio_thickness * 2 * spec.radius)))]
     lo, hi = np.zeros(3), np.array(SLAB)
@@ -117,6 +116,13 @@ def _impactor_height(imp_c, imp_r, slab_c, slab_r, reach):
     rise = np.sqrt(np.maximum(pair_reach**2 - lateral**2, 0.0))  # vertical centre gap needed
     rise = np.where(lateral < pair_reach, rise + s_c[None, :, 2] - i_c[:, None, 2], -np.inf)
     return float(rise.max())
+
+
+def plan_cell(spec):
+    """The in-plane size h of the slab's FE cells (slab_grid's) for a spec given as a dict
+    (summary.json's): a plan grid of h puts each FE cell in a grid cell of its own."""
+    k = max(1, round(0.5 / (spec["fe_ratio"] * 2 * spec["radius"])))
+    return 0.5 / k
 
 
 def sensor_points(spec, grid):

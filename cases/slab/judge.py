@@ -49,12 +49,14 @@ def check_members(n_full, n_coupled, n_pairs):
                          f"model: got {n_full} full, {n_coupled} coupled, {n_pairs} pairs")
 
 
-def judge(full, coupled, margin=None):
+def judge(full, coupled, margin=None, totals=None):
     """Judge the QoIs of the members `full`, `coupled` ({seed: (t, names, values (n_times,
-    n_qoi))}) with the margins of `margins(margin)`. Returns {"margins", "window_s",
-    "members": {"full", "coupled", "pairs"}, "qoi": {name: {statistic: result}}} with the
-    results of equivalence.scalar / .history, or {"verdict": "not judged", "last_sample":
-    [labels]} for each statistic of a QoI cut by the window."""
+    n_qoi))}) with the margins of `margins(margin)`, and `totals` ({name: ({seed: full
+    value}, {seed: coupled value})}: figures of the whole run, judged as a peak is, under the
+    statistic "total"). Returns {"margins", "window_s", "members": {"full", "coupled",
+    "pairs"}, "qoi": {name: {statistic: result}}} with the results of equivalence.scalar /
+    .history, or {"verdict": "not judged", "last_sample": [labels]} for each statistic of a
+    QoI cut by the window."""
     m = margins(margin)
     pairs = sorted(full.keys() & coupled.keys())
     check_members(len(full), len(coupled), len(pairs))
@@ -81,6 +83,8 @@ def judge(full, coupled, margin=None):
             s: (equivalence.history(h["full"], h["coupled"], m[s]) if s == "history" else
                 equivalence.scalar(figures[s]("full"), figures[s]("coupled"), m[s]))
             for s in statistics}
+    for name, (f, c) in (totals or {}).items():
+        out["qoi"][name] = {"total": equivalence.scalar(f, c, m["peak"])}
     return out
 
 

@@ -27,6 +27,13 @@
 
 The two forces are NaN at t = 0 (no interval), and the reaction at the first sample after a
 grown zone's conversion (the model's momentum is carried there, not integrated).
+
+And, at the end, damage measured alike in both models: the energy dissipated by cracking in
+the slab, per cohesive link (yade_side.cracking, read at every output frame so that the links
+the law deletes keep their energy) and per FE cell of an FE that cracks
+(fenicsx_side.damaged: dissipated_cells), each at its place: a link at the midpoint of its
+spheres' reference positions, a cell at its centre. In the coupled model's band both are
+weighted (β, α) as its energy is. The impactor's own cracking is recorded apart.
 """
 import numpy as np
 
@@ -103,8 +110,9 @@ class Quantities:
         if last is None:
             self.start = (self._centre()[0][2], self._front())
             self.last = np.array([*self._momenta(), model.O.iter])
+            self.cracking = None
         else:
-            self.start, self.last = last.start, last.last.copy()
+            self.start, self.last, self.cracking = last.start, last.last.copy(), last.cracking
             self.last[1] = np.nan
         row = {int(k): i for i, k in enumerate(model.slab_index)}
         patches = patch_points(packs.slab_centres, model.spec.radius)
@@ -143,11 +151,56 @@ class Quantities:
         return i.mass @ i.vel[:, 2], total
 
     def state(self):
-        """What a checkpoint keeps: the last sample's momenta and step."""
-        return self.last.copy()
+        """What a checkpoint keeps: the last sample's momenta and step, the links' cracking
+        energy at the last output ({name: array})."""
+        out = {"last": self.last.copy()}
+        if self.cracking is not None:
+            out.update({f"cracking_{k}": v for k, v in self.cracking._asdict().items()})
+        return out
 
     def restore(self, state):
-        self.last = np.array(state, float)
+        from yade_side.cracking import LinkCracking
+        self.last = np.array(state["last"], float)
+        if "cracking_ids" in state:
+            self.cracking = LinkCracking(*(np.asarray(state[f"cracking_{k}"])
+                                           for k in LinkCracking._fields))
+
+    def output(self):
+        """At an output frame: the links' cracking energy, those deleted since the last
+        frame kept at their work to deletion (a scene split over MPI ranks: not measured)."""
+        from yade_side.cracking import link_cracking_energy
+        from yade_side.distributed import remote
+        if remote() is None:
+            self.cracking = link_cracking_energy(self.cracking)
+
+    def cracking_map(self):
+        """({"slab_J", "slab_links_J", "slab_fe_J", "impactor_J"}, {"crack_points" (n, 3),
+        "crack_energy" (n,) J, "crack_fe" (n,) bool: a cell}): the slab's links, then the FE
+        cells; None without a measure (MPI)."""
+        if self.cracking is None:
+            return None
+        m, c = self.m, self.cracking
+        # in the order of their ids: the scene's own order is the order links were made in,
+        # which a checkpoint's reload changes
+        c = type(c)(*(a[np.lexsort(c.ids.T[::-1])] for a in c))
+        ids, where = self.m.spheres.ids, self.m.spheres.ref_pos
+        order = np.argsort(ids)
+        at = np.searchsorted(ids[order], c.ids).clip(0, len(ids) - 1)
+        slab = (ids[order][at] == c.ids).all(axis=1)
+        points = 0.5 * where[order][at[slab]].sum(axis=1)
+        energy, fe = c.energy[slab], np.zeros(np.count_nonzero(slab), bool)
+        links = float(energy.sum())
+        fe_energy = 0.0
+        if m.fe is not None and m.fe.carries_damage:
+            cells = m.fe.dissipated_cells
+            fe_energy = float(cells.sum())
+            points = np.vstack([points, m.fe.cell_centres])
+            energy = np.concatenate([energy, cells])
+            fe = np.concatenate([fe, np.ones(len(cells), bool)])
+        totals = {"slab_J": links + fe_energy, "slab_links_J": links, "slab_fe_J": fe_energy,
+                  "impactor_J": float(c.energy[np.isin(c.ids, m.impactor_ids).all(axis=1)]
+                                      .sum())}
+        return totals, {"crack_points": points, "crack_energy": energy, "crack_fe": fe}
 
     def sample(self):
         now = np.array([*self._momenta(), self.m.O.iter])   # reads the impactor too
@@ -163,20 +216,32 @@ class Quantities:
         return np.concatenate([[x[2] - centre0, v[2], rates[0],
                                 front0 - self._front() - self.gap, rates[1]], deflection])
 
-    @staticmethod
-    def end_figures(times, values):
+    def end_figures(self, times, values):
         """What summary.json records at the end: the impactor's residual velocity (m/s, its
         centre of mass's z velocity at the last sample), whether it perforated the slab (its
-        front below the slab's original bottom face: penetration past the thickness), and
-        each QoI's peak (peak_index: its value, signed) and its time."""
-        values = np.asarray(values, float)
-        last = dict(zip(NAMES, values[-1]))
-        peaks = {}
-        for name, column in zip(NAMES, values.T):
-            k = peak_index(name, column)
-            peaks[name] = {"peak": float(column[k]), "time_s": float(times[k])}
-        return {"residual_velocity_m_s": float(last["impactor_vz"]),
-                "perforated": bool(last["penetration"] > SLAB[2]), "peaks": peaks}
+        front below the slab's original bottom face: penetration past the thickness), each
+        QoI's peak (peak_index: its value, signed) and its time, and the cracking energy
+        (cracking_map's totals, None where not measured)."""
+        cracking = self.cracking_map()
+        return {**peak_figures(times, values),
+                "cracking_energy": None if cracking is None else cracking[0]}
+
+    def arrays(self):
+        """What damage.npz adds: cracking_map's arrays (none where not measured)."""
+        cracking = self.cracking_map()
+        return {} if cracking is None else cracking[1]
+
+
+def peak_figures(times, values):
+    """The residual velocity, perforation and peaks of Quantities.end_figures."""
+    values = np.asarray(values, float)
+    last = dict(zip(NAMES, values[-1]))
+    peaks = {}
+    for name, column in zip(NAMES, values.T):
+        k = peak_index(name, column)
+        peaks[name] = {"peak": float(column[k]), "time_s": float(times[k])}
+    return {"residual_velocity_m_s": float(last["impactor_vz"]),
+            "perforated": bool(last["penetration"] > SLAB[2]), "peaks": peaks}
 
 
 STOPPED = 0.01       # × the impact speed: an impactor this slow (or rising) has stopped

@@ -82,7 +82,7 @@ def coupling_figures(c):
 
 def write_results(out, title, model, rec, summary_data, arrays=None, quantities=None):
     """summary.json, sensors.csv, damage.npz, sensors.png and damage.png of a finished run;
-    with `quantities` (its QoIs), quantities.csv."""
+    with `quantities` (its QoIs), quantities.csv and their arrays in damage.npz."""
     m, times, history = model, np.array(rec.times), np.array(rec.history)
     write_json(out / "summary.json", summary_data)
     write_sensors(out / "sensors.csv", m.sensor_names, times, history)
@@ -95,7 +95,7 @@ def write_results(out, title, model, rec, summary_data, arrays=None, quantities=
           if m.fe_damages else {})
     save_npz(out / "damage.npz", times=np.array(rec.maps_t), damage=np.array(rec.maps),
              positions=m.spheres.ref_pos, radius=m.spheres.radius, in_de_zone=m.in_de_zone,
-             **fe, **(arrays or {}))
+             **fe, **(arrays or {}), **({} if quantities is None else quantities.arrays()))
     plot_run(out, title, m.sensor_names, times, history, m.spheres.ref_pos, rec.maps[-1])
 
 

@@ -99,6 +99,8 @@ class Recorder:
         dmg = self.m.damage.update()
         self.rec.maps_t.append(t)
         self.rec.maps.append(dmg)
+        if self.qoi is not None:
+            self.qoi.output()
         s.read()
         self.spheres.write(t, s.pos, s.radius, displacement=s.displacement(), velocity=s.vel,
                            rotation_speed=s.angvel, damage=dmg)

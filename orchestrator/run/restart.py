@@ -55,12 +55,12 @@ class Record:
     # the run starts a file per FE mesh)
     fe_series: str = "fe.xdmf"
     fe_first: int = 0
-    quantity_state: list = field(default_factory=list)   # what the QoIs carry between samples
+    quantity_state: dict = field(default_factory=dict)   # what the QoIs carry between samples
 
 
 # what a checkpoint of an earlier version lacks
 EARLIER = {"fe_peak": "the FE's peak stress", "quantities": "the quantities of interest",
-           "quantity_state": "the quantities' state",
+           "quantity_state_last": "the quantities' state",
            "fe_history_dissipated_cells": "the FE cells' dissipated energy"}
 
 
@@ -91,7 +91,7 @@ def save(out, record, model, meta, seconds):
              "maps_t": np.array(record.maps_t), "maps": np.array(record.maps),
              "gaps": np.array(record.gaps).reshape(-1, 3),
              "quantities": np.array(record.quantities),
-             "quantity_state": np.array(record.quantity_state),
+             **{f"quantity_state_{k}": v for k, v in record.quantity_state.items()},
              "wall_s": record.wall_s, "fe_peak": np.array(record.fe_peak),
              "fe_series": np.array(record.fe_series), "fe_first": record.fe_first}
     if model.fe is not None:
@@ -185,7 +185,7 @@ def load(out, model, meta, quantities=False):
                if model.fe is not None else [])
     needed += ["rotation", "rotation_pred"] if model.stepper is not None else []
     needed += [f"de_history_{k}" for k in model.de_history()]
-    needed += ["quantities", "quantity_state"] if quantities else []
+    needed += ["quantities", "quantity_state_last"] if quantities else []
     missing = [k for k in needed if k not in state]
     if missing and set(missing) <= set(EARLIER):
         raise ValueError(f"{folder / 'state.npz'}: a checkpoint of an earlier version, which did "
@@ -211,7 +211,8 @@ def load(out, model, meta, quantities=False):
                   list(state.get("quantities", [])), saved["seconds"],
                   float(state["wall_s"]), [float(v) for v in state["fe_peak"]],
                   str(state.get("fe_series", "fe.xdmf")), int(state.get("fe_first", 0)),
-                  list(state.get("quantity_state", [])))
+                  {k[len("quantity_state_"):]: v for k, v in state.items()
+                   if k.startswith("quantity_state_")})
 
 
 def _folder(out):
