@@ -344,3 +344,16 @@ def test_the_event_ends_when_the_impactor_stopped_and_the_slab_rebounded():
     assert event_end(t, slow) is None                      # the centre still sinks
     slow[:, NAMES.index("deflection_x1.25")] = -np.sin(np.pi * t / 2.2e-3)
     assert event_end(t, slow) == t[2000]                   # risen past half by then
+
+
+def test_the_default_window_is_the_impact_s_measured_duration():
+    """Measured speeds give their duration; a speed between two the longer of them, beyond
+    them the nearest; a scale without measurements its table's 7 ms; the steps hold it."""
+    from cases.slab.scales import DURATIONS, TABLE_DURATION, duration
+    measured = DURATIONS["small"]
+    assert duration("small", 10) == measured[10] and duration("small", 40) == measured[40]
+    assert duration("small", 20) == max(measured[10], measured[40])
+    assert duration("small", 5) == measured[10] and duration("small", 80) == measured[40]
+    assert duration("medium", 40) == TABLE_DURATION
+    spec = slab.SlabSpec(scale="small", impactor_speed=10)
+    assert spec.steps == int(np.ceil(round(4950 * measured[10] / TABLE_DURATION * 0.15 / 0.3, 6)))

@@ -34,7 +34,8 @@ def test_the_largest_passing_rung_is_chosen_and_each_pre_run_made_once():
     assert tried[0][1] > TOLERANCE >= tried[1][1]
     assert "more than 1 %" in lines[0] and "more than" not in lines[1]
     # the chosen spec is a whole one: the table's duration at 0.4, r from the rule at 0.4
-    assert chosen.steps == SlabSpec(dt_safety=0.4).steps == 1857     # ⌈4950 × 0.15 / 0.4⌉
+    # ⌈4950 × 10.5 / 7 × 0.15 / 0.4⌉: the table's steps over its 7 ms, at 40 m/s's 10.5 ms
+    assert chosen.steps == SlabSpec(dt_safety=0.4).steps == 2785
     assert chosen.relaxation == SlabSpec(dt_safety=0.4).relaxation
 
 

@@ -39,12 +39,12 @@ class Scale:
 #   the free edges y = 0, 2 within 5 ms: the grown zone says that coupling cannot pay. The
 #   full-width strips of the map (docs/where-coupling-pays.md) are `--de-zone 0.6` (small),
 #   `0.9` (medium) `--full-width --layers 3`.
-# - steps: the full slab at 10 m/s (seed 1) sinks to its first peak at 5.2 ms under the
-#   impact and 6.0 ms at the far sensors (small), 5.2 and 4.7 ms (medium), and is back to half
-#   of it by 6.7 and 6.9 ms: 7 ms holds both (`slab --model full --impactor-speed 10 --steps
-#   4950 [--scale medium --steps 6600]`, then the sensors.csv). At 40 m/s the small slab does
-#   not rebound: under the impact it sinks 170 mm by 14 ms, the far sensors 4-8 mm, still
-#   going down. The paper scale keeps a short default (a full member is hours): give --steps.
+# - steps: 7 ms (TABLE_DURATION): the full slab at 10 m/s (seed 1) sinks to its first peak
+#   at 5.2 ms under the impact and 6.0 ms at the far sensors (small), 5.2 and 4.7 ms
+#   (medium), and is back to half of it by 6.7 and 6.9 ms (`slab --model full
+#   --impactor-speed 10 --steps 4950 [--scale medium --steps 6600]`, then the sensors.csv);
+#   where the event's end is measured, the default window is its duration (DURATIONS). The
+#   paper scale keeps a short default (a full member is hours): give --steps.
 SCALES = {
     "small": Scale(0.025, 4950, 20.2e9, 0.5, False, 1),
     "medium": Scale(0.0185, 6400, 22.6e9, 0.5, False, 1),
@@ -52,6 +52,31 @@ SCALES = {
 }
 # the table's steps are at this × the critical step: the duration is what is kept
 STEPS_SAFETY = 0.15
+TABLE_DURATION = 7e-3     # s, what the table's steps hold at small and medium scale
+# the impact's duration (s) by scale and impact speed where the full model has measured it:
+# the latest end of the event over the full members of seeds 1-6 (the impactor stopped,
+# rebounded or through, then the slab's centre risen back by half its depth, or where the
+# slab breaks under the impact and its centre never rises, the impactor's end alone:
+# cases.slab.quantities.event_ends, which `compare` prints) + 10 %, rounded up to 0.5 ms:
+# - small, 10 m/s: 7.28 ms (seed 2; the others 6.37-7.12 ms), `slab --model full --scale
+#   small --impactor-speed 10 --seeds 1,2,3,4,5,6 --steps 4240` (12 ms), then `compare`;
+# - small, 40 m/s: the impactor's end, 5.01-9.34 ms (the slab's centre scabs and never
+#   rises, its sides still sink at 25 ms), the same with `--impactor-speed 40 --steps 8840`.
+DURATIONS = {"small": {10: 8.0e-3, 40: 10.5e-3}}
+
+
+def duration(scale, speed):
+    """The default window (s) of an impact at `speed` (m/s) at `scale`: the measured duration
+    at that speed, else the longer of the two measured speeds around it (the nearest one
+    beyond them); TABLE_DURATION where none is measured (medium; paper keeps its short
+    table)."""
+    measured = DURATIONS.get(scale)
+    if not measured:
+        return TABLE_DURATION
+    below = [v for v in measured if v <= speed]
+    above = [v for v in measured if v >= speed]
+    near = ([max(below)] if below else []) + ([min(above)] if above else [])
+    return max(measured[v] for v in near)
 # the fields that default to the table's value of the scale (None: take the scale's)
 PER_SCALE = {"radius": "radius", "young": "fe_young",
              "de_zone": "de_zone", "full_width": "full_width", "layers": "layers"}

@@ -11,7 +11,8 @@ from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
 from orchestrator.run.autozone import (TripLevels, ahead_level, damage_level, omega_level,
                                        stress_level)
-from cases.slab.scales import CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY, concrete_set
+from cases.slab.scales import (CONCRETES, DURATIONS, PER_SCALE, SCALES, SLAB, STEPS_SAFETY,
+                               TABLE_DURATION, concrete_set, duration)
 
 
 @dataclass
@@ -110,7 +111,8 @@ class SlabSpec:
                                     "cracked slab in proportion to the step (0: never; "
                                     "docs/performance.md)")
     steps: int = key(None, integer, step_count, section="time",
-                     help="steps; default per scale")
+                     help="steps; default per scale and impact speed: the impact's measured "
+                          "duration (cases/slab/scales.py)")
     sample_every: int = key(5, integer, positive, section="output",
                             help="steps between sensor samples")
     check_every: int = key(50, integer, positive, section="output",
@@ -180,9 +182,13 @@ class SlabSpec:
                 setattr(self, name, getattr(material, name))
         chosen = self.dt_safety != "auto"     # else steps and r once the run has chosen dt
         if self.steps is None and chosen:
-            # the table's duration: the critical step is ∝ 1/√young
-            self.steps = math.ceil(round(table.steps * STEPS_SAFETY / self.dt_safety * math.sqrt(
-                material.cpm["young"] / concrete_set(self.scale, "plain").cpm["young"]), 6))
+            # the table's steps over its duration, or the measured one of this impact: the
+            # critical step is ∝ 1/√young
+            length = (1.0 if self.scale not in DURATIONS
+                      else duration(self.scale, self.impactor_speed) / TABLE_DURATION)
+            self.steps = math.ceil(round(table.steps * length * STEPS_SAFETY / self.dt_safety
+                                         * math.sqrt(material.cpm["young"] / concrete_set(
+                                             self.scale, "plain").cpm["young"]), 6))
         for name, column in PER_SCALE.items():
             if getattr(self, name) is None:
                 setattr(self, name, getattr(table, column))
