@@ -329,3 +329,20 @@ def test_a_window_that_ends_before_the_impact_is_warned(tmp_path):
         "gone through in every full member; the slab's centre has not risen back by half its "
         "depth since then in full seeds 2 (run more --steps; a slab broken under the impact "
         "never rises)"]
+
+
+def test_members_of_another_window_are_refused(tmp_path, capsys):
+    """Coupled seeds 3, 4 of twice the steps (no same-seed pair to compare durations): their
+    window, steps × dt_safety, is not the full members'; one line, nothing written."""
+    ensemble(tmp_path / "full", "full", {1: 1.0, 2: 1.0})
+    for seed in (3, 4):
+        folder = member(tmp_path / "c" / f"seed-{seed}", "coupled", seed, 1.0, end=2e-3)
+        summary = json.loads((folder / "summary.json").read_text())
+        summary["spec"]["steps"] = 200
+        write_json(folder / "summary.json", summary)
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "c"), "--out",
+                 str(tmp_path / "cmp")]) == 2
+    err = capsys.readouterr().err
+    assert "members differ in window (steps × dt_safety): 15.0 (full 1) vs 30.0 (coupled 3)" \
+        in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "cmp").exists()

@@ -102,7 +102,17 @@ def load(full_dirs, coupled_dirs, verdict=False):
             raise ValueError(f"{r.folder}: sensors {r.names}, the others {names}")
     for seed in full.keys() & coupled.keys():
         _check_duration(full[seed], coupled[seed])
+    # one window for every member, the QoIs' too: the same steps of the same fraction of
+    # the critical step (each seed's critical step differs by a few %)
+    ensemble.check_same_kind({f"{r.model} {s}": {"window (steps × dt_safety)": _window(r)}
+                              for runs in (full, coupled) for s, r in runs.items()})
     return full, coupled
+
+
+def _window(run):
+    steps, safety = run.spec.get("steps"), run.spec.get("dt_safety")
+    return (round(steps * safety, 9) if isinstance(safety, (int, float)) and steps
+            else steps)
 
 
 def judged(full, coupled):
