@@ -59,7 +59,7 @@ def _yardstick(result, out):
                       f"'equivalent' when the 90 % interval of the mean difference lies within "
                       f"± the margin (the history's: its rms, and the bound of it), 'cannot "
                       f"judge' when the members' spread is too wide for the margin "
-                      f"(docs/slab.md, 'The yardstick')."),
+                      f"(docs/slab.md, 'How a comparison is judged')."),
             table(["QoI", "statistic", "test (members)", "difference", "90 % interval / bound",
                    "standard error", "margin", "verdict"], rows, "yardstick"),
             picture(out / "quantities.png", "the judged QoIs of every member: full solid, "
