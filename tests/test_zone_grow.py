@@ -510,3 +510,32 @@ def test_a_grown_zones_fe_step_is_checked_on_its_bound_first(dt, expect, calls):
     first = FE()
     assert _time_step(d, first, np.ones(1), [], old_fe=None)[1]["fe"] == 3e-6
     assert first.calls == ["exact"]
+
+
+def test_a_field_probe_found_again_past_the_object_takes_the_object_s_own_place(monkeypatch):
+    """The probe's search runs past the object's end into the heap, where a copy of the probe
+    (the temporary vector that carried it through the API) may lie: the first place, the
+    object's own, is the field's. A stand-in object over a buffer holds its field at double
+    5, and its setter leaves a copy at double 100 too."""
+    from yade_side import memory
+
+    class V3(tuple):
+        def __new__(cls, x, y, z):
+            return super().__new__(cls, (x, y, z))
+
+    buffer = np.zeros(memory._SEARCH)
+
+    class StandInPhys:
+        @property
+        def force(self):
+            return V3(*buffer[5:8])
+
+        @force.setter
+        def force(self, v):
+            buffer[5:8] = buffer[100:103] = v
+
+    monkeypatch.setattr(memory, "state_address", lambda obj: buffer.ctypes.data)
+    obj = StandInPhys()
+    obj.force = V3(1.0, 2.0, 3.0)
+    assert memory.field_offsets(obj, ["force"]) == {"force": (5, 3)}
+    assert tuple(obj.force) == (1.0, 2.0, 3.0)                       # restored

@@ -373,8 +373,8 @@ def _api_value(obj, name):
 def field_offsets(obj, names):
     """{name: (offset in doubles, width)} of the fields `names` inside the C++ object of the
     wrapper `obj`: distinct exact binary fractions are written to the fields through the
-    API, looked for in the object's first _SEARCH doubles (each must be found once) and the
-    fields restored."""
+    API, looked for in the object's first _SEARCH doubles (the first place each is found) and
+    the fields restored."""
     kind = type(obj).__name__
     missing = [n for n in names if (kind, n) not in _field_found]
     if missing:
@@ -401,8 +401,11 @@ def field_offsets(obj, names):
         for n, probe in probes.items():
             hits = [o for o in range(_SEARCH - len(probe) + 1)
                     if same_bits(memory[o:o + len(probe)], probe)]
-            if len(hits) != 1:
-                raise CheckpointError(f"{kind}.{n} found {len(hits)} times in memory: cannot "
-                                      f"read it in bulk")
+            if not hits:
+                raise CheckpointError(f"{kind}.{n} not found in memory: cannot read it in bulk")
+            # the first: the search runs past the object's end into the heap, where the
+            # temporary Vector3r that carried a probe through the API may lie (where, depends
+            # on what was allocated before); the object's own field comes before anything
+            # after it, and Fields verifies the place against the API on a sample
             _field_found[kind, n] = (hits[0], len(probe))
     return {n: _field_found[kind, n] for n in names}
