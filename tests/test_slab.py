@@ -201,8 +201,9 @@ def check_quantities(m, O, steps=5):
 
 
 def test_patches_are_the_bottom_spheres_within_the_radius():
-    """A sphere's centre on the centre line, just inside a patch's rim or just past it, in the bottom
-    layer or one diameter up: only those within PATCH_RADIUS and one diameter of z = 0."""
+    """A sphere's centre on the centre line, just inside a patch's rim or just past it, in the
+    bottom layer or one diameter up: only those within PATCH_RADIUS and one diameter of
+    z = 0."""
     from cases.slab.quantities import PATCH_RADIUS, PROFILE_Y, patch_points
     r = 0.01
     x = 1.25

@@ -100,19 +100,20 @@ class Quantities:
         packs, self.m = model.scene.packs, model
         self.impactor = model.impactor
         self.impactor.read()
-        z = self.impactor.pos[:, 2]
-        self.front = np.flatnonzero(z < z.min() + 2 * model.spec.radius)
         self.gap = model.spec.impactor_gap
         # a run's first model is built at t = 0 (a resumed one too, before its checkpoint is
-        # loaded): its start is read here; a grown zone's model takes the start and the last
-        # sample's momenta of `last`, the model it grew from, less the whole model's
-        # momentum, which the conversion carries rather than integrates
+        # loaded): its front and start are read here; a grown zone's model takes them, and
+        # the last sample's momenta, from `last`, the model it grew from, less the whole
+        # model's momentum, which the conversion carries rather than integrates
         if last is None:
+            z = self.impactor.pos[:, 2]
+            self.front = np.flatnonzero(z < z.min() + 2 * model.spec.radius)
             self.start = (self._centre()[0][2], self._front())
             self.last = np.array([*self._momenta(), model.O.iter])
             self.cracking = None
         else:
-            self.start, self.last, self.cracking = last.start, last.last.copy(), last.cracking
+            self.front, self.start, self.cracking = last.front, last.start, last.cracking
+            self.last = last.last.copy()
             self.last[1] = np.nan
         row = {int(k): i for i, k in enumerate(model.slab_index)}
         patches = patch_points(packs.slab_centres, model.spec.radius)
@@ -123,7 +124,8 @@ class Quantities:
         # sphere and those read on the FE
         owner = np.repeat(np.arange(len(patches)), [len(p) for p in patches.values()])
         weight = 1.0 / np.bincount(owner)[owner]
-        self.spheres = BodySet(model.spheres.ids[rows[has]], ref_pos=packs.slab_centres[points[has]])
+        self.spheres = BodySet(model.spheres.ids[rows[has]],
+                               ref_pos=packs.slab_centres[points[has]])
         self.sphere_mean = _averaging(owner[has], weight[has], len(patches))
         self.fe_mean = None
         if not has.all():
