@@ -201,11 +201,12 @@ def test_a_grown_run_whose_case_changed_is_refused(runs, tmp_path, capsys):
     assert not (out / "summary.json").exists()
 
 
-# the same slab with a budget so small that the zone stops at its first trip (step 150), and
-# the full model it falls back to, checkpointed at step 100 (a checkpoint of the small full
-# slab takes about 10 s)
+# the same slab with a budget so small that the zone stops at its first trip (broken band
+# links read every 50 steps: step 150), and the full model it falls back to, checkpointed at
+# step 100 (a checkpoint of the small full slab takes about 10 s)
 LIMITED = ["slab", "--model", "coupled", "--scale", "small", "--impactor-speed", "40",
            "--fe-material", "damage", "--zone-cost", "0.05", "--fallback", "full",
+           "--links-every", "50", "--trip-omega", "1",
            "--steps", "160", "--checkpoint-every", "100", "--output-every", "100",
            "--threads", "1", "--quiet"]
 
