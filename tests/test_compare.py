@@ -175,6 +175,7 @@ def test_the_yardstick_finds_a_coupled_ensemble_like_the_full_one_equivalent(tmp
     out = capsys.readouterr().out
     assert out.strip().splitlines()[-2] == r["headline"]
     assert (tmp_path / "cmp" / "quantities.png").stat().st_size > 0
+    assert (tmp_path / "cmp" / "profiles.png").stat().st_size > 0
     assert 'id="yardstick"' in (tmp_path / "cmp" / "report.html").read_text()
 
 

@@ -75,7 +75,7 @@ def test_compare_report_opens_in_a_browser_with_every_picture_and_figure(tmp_pat
     page = Tables()
     page.feed(browser_dom(out / "report.html"))
     images = int(page.body["data-images"])
-    assert images == 3 + 2 * 2      # the QoIs' and the two ensemble pictures, two per pair
+    assert images == 5 + 2 * 2      # QoIs, profiles, cracking maps, two ensembles; two a pair
     assert page.body["data-images-decoded"] == page.body["data-images"]
     r = json.loads((out / "comparison.json").read_text())
     rows = page.tables["yardstick"][1:]

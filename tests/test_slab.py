@@ -57,6 +57,12 @@ def test_an_fe_that_damages_writes_its_damage_and_counts_it_in_the_damaged_volum
         assert z["crack_energy"][z["crack_fe"]].sum() == pytest.approx(crack["slab_fe_J"],
                                                                        rel=1e-12)
     assert crack["slab_links_J"] > 0 and crack["slab_fe_J"] > 0
+    # the profile along the span at the centre's peak holds that peak, at its time
+    q = summary["quantities"]
+    profile = q["profile_at_peak"]
+    assert profile["time_s"] == q["peaks"]["deflection_x1.25"]["time_s"]
+    assert profile["deflection_m"][profile["x_m"].index(1.25)] == \
+        q["peaks"]["deflection_x1.25"]["peak"]
 
 
 def test_bad_damage_input_is_one_line(tmp_path, capsys):

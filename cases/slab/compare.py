@@ -210,6 +210,7 @@ def compare(full, coupled, out, verdict=False, margin=None):
         short = judge.window_warning(result["judgement"])
         result["warnings"] += [short] if short else []
         _plot_quantities(out / "quantities.png", full, coupled)
+        _plot_profiles(out / "profiles.png", full, coupled)
     if verdict or len(full) >= verdicts.MIN_FULL_MEMBERS:
         result["ensemble"] = _ensemble(full, coupled, names, out)
     write_json(out / "comparison.json", result)
@@ -298,6 +299,28 @@ def _matched_damage(f, c):
 
 def _quantities(runs):
     return {s: r.quantities for s, r in runs.items()}
+
+
+def _plot_profiles(path, full, coupled):
+    """Each member's deflection along the span's centre line at its centre's peak (full
+    solid, compared dashed, a colour per seed)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from cases.slab.quantities import peak_figures
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    seeds = sorted(full.keys() | coupled.keys())
+    for side, runs, style in (("full", full, "-o"), (_side(coupled.values()), coupled, "--s")):
+        for s, r in sorted(runs.items()):
+            p = peak_figures(r.quantities[0], r.quantities[2])["profile_at_peak"]
+            ax.plot(p["x_m"], 1e3 * np.array(p["deflection_m"]), style, ms=3, lw=1,
+                    color=f"C{seeds.index(s) % 10}",
+                    label=f"{side} {s} ({1e3 * p['time_s']:.2f} ms)")
+    ax.set(xlabel="x along the span's centre line (m)", ylabel="z deflection of the bottom (mm)",
+           title="the deflection profile at the centre's peak")
+    ax.legend(fontsize=7, ncol=2)
+    fig.tight_layout()
+    save_figure(fig, path)
 
 
 def _cracking_totals(full, coupled):

@@ -63,7 +63,11 @@ def _yardstick(result, out):
             table(["QoI", "statistic", "test (members)", "difference", "90 % interval / bound",
                    "standard error", "margin", "verdict"], rows, "yardstick"),
             picture(out / "quantities.png", "the judged QoIs of every member: full solid, "
-                                            "compared dashed, a colour per seed")]
+                                            "compared dashed, a colour per seed"),
+            picture(out / "profiles.png", "the deflection along the span at the centre's "
+                                          "peak, every member"),
+            picture(out / "cracking_maps.png", "the energy dissipated by cracking per FE plan "
+                                               "cell, mean of each ensemble")]
 
 
 def write(result, full, coupled, out):

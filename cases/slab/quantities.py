@@ -23,7 +23,8 @@
   centre lies within PATCH_RADIUS in plan and within one sphere diameter of the bottom face
   (more than three sphere diameters across at every scale). The points are the packing's
   sphere centres, the same in both models: where the coupled model has a sphere there (DE
-  zone, band) its displacement, elsewhere the FE field's at that point.
+  zone, band) its displacement, elsewhere the FE field's at that point. Together they are
+  the deflection profile along the span, which summary.json gives at the centre's peak.
 
 The two forces are NaN at t = 0 (no interval), and the reaction at the first sample after a
 grown zone's conversion (the model's momentum is carried there, not integrated).
@@ -44,6 +45,7 @@ PATCH_RADIUS = 0.1          # m, in plan
 PROFILE_X = tuple(np.round(np.arange(0.25, SLAB[0], 0.25), 2))   # the span's centre line
 PROFILE_Y = 0.5 * SLAB[1]
 IMPACTOR = ("impactor_z", "impactor_vz", "contact_force", "penetration")
+CENTRE = "deflection_x1.25"     # the patch under the impact
 NAMES = IMPACTOR + ("reaction",) + tuple(f"deflection_x{x:.2f}" for x in PROFILE_X)
 # the sense of each kind of QoI's peak: its largest descent (-1), rise (+1) or magnitude (0);
 # the impactor's centre rises past its start when it rebounds, and the supports pull as well
@@ -235,15 +237,20 @@ class Quantities:
 
 
 def peak_figures(times, values):
-    """The residual velocity, perforation and peaks of Quantities.end_figures."""
+    """The residual velocity, perforation and peaks of Quantities.end_figures, and the
+    deflection profile along the span's centre line at the centre's peak."""
     values = np.asarray(values, float)
     last = dict(zip(NAMES, values[-1]))
     peaks = {}
     for name, column in zip(NAMES, values.T):
         k = peak_index(name, column)
         peaks[name] = {"peak": float(column[k]), "time_s": float(times[k])}
+    k = peak_index(CENTRE, values[:, NAMES.index(CENTRE)])
+    profile = [NAMES.index(f"deflection_x{x:.2f}") for x in PROFILE_X]
     return {"residual_velocity_m_s": float(last["impactor_vz"]),
-            "perforated": bool(last["penetration"] > SLAB[2]), "peaks": peaks}
+            "perforated": bool(last["penetration"] > SLAB[2]), "peaks": peaks,
+            "profile_at_peak": {"time_s": float(times[k]), "x_m": [float(x) for x in PROFILE_X],
+                                "deflection_m": values[k, profile].tolist()}}
 
 
 STOPPED = 0.01       # × the impact speed: an impactor this slow (or rising) has stopped
@@ -254,7 +261,7 @@ def event_ends(times, values):
     """When the impact is over in the run of QoI `values` (n_times, NAMES) at `times`:
     {"impactor_s", "slab_s"}, when the impactor has stopped (its centre's descent slower
     than STOPPED × the impact speed), rebounded or perforated (penetration past the slab's
-    thickness); and when, after that, the slab's centre (deflection_x1.25) has passed its
+    thickness); and when, after that, the slab's centre (CENTRE) has passed its
     deepest point so far and risen back by REBOUND × that depth. None where the record ends
     before (a slab broken under the impact, whose centre's spheres fly off, never rises)."""
     q = {name: np.asarray(values, float)[:, k] for k, name in enumerate(NAMES)}
@@ -263,7 +270,7 @@ def event_ends(times, values):
     if not over.any():
         return {"impactor_s": None, "slab_s": None}
     first = int(np.argmax(over))
-    d = q["deflection_x1.25"]
+    d = q[CENTRE]
     deepest = np.minimum.accumulate(d)
     risen = ((deepest < 0) & (d - deepest >= -REBOUND * deepest))[first:]
     return {"impactor_s": float(times[first]),
