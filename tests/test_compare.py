@@ -347,3 +347,18 @@ def test_members_of_another_window_are_refused(tmp_path, capsys):
     assert "members differ in window (steps × dt_safety): 15.0 (full 1) vs 30.0 (coupled 3)" \
         in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "cmp").exists()
+
+
+def test_runs_recorded_before_the_quantities_are_compared_on_their_sensors(tmp_path):
+    """No run has quantities.csv: no yardstick, the sensors' figures as before; asked for a
+    verdict, one line says why not."""
+    for side, model in (("full", "full"), ("c", "coupled")):
+        ensemble(tmp_path / side, model, FULL)
+        for seed in FULL:
+            (tmp_path / side / f"seed-{seed}" / QUANTITIES).unlink()
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "c"), "--out",
+                 str(tmp_path / "cmp")]) == 0
+    r = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+    assert "judgement" not in r and "within_full_scatter" in r["ensemble"]
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "c"), "--verdict", "--out",
+                 str(tmp_path / "cmp2")]) == 2

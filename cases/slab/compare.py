@@ -90,7 +90,7 @@ def load(full_dirs, coupled_dirs, verdict=False):
     full, coupled = members(full_dirs, "full"), members(coupled_dirs, ("coupled", "full"))
     if verdict:
         judge.check_members(len(full), len(coupled), len(full.keys() & coupled.keys()))
-    if verdict or judged(full, coupled):
+    if verdict or any(r.quantities is not None for r in [*full.values(), *coupled.values()]):
         _check_quantities([*full.values(), *coupled.values()])
     probed = take_probes(full, coupled)
     same = [k for k in SAME if not (probed and k in ZONE_KEYS)]
@@ -116,7 +116,10 @@ def _window(run):
 
 
 def judged(full, coupled):
-    """The runs are judged on the quantities of interest: the test has its members."""
+    """The runs are judged on the quantities of interest: they recorded them (runs made
+    before them are compared on their sensors alone) and the test has its members."""
+    if any(r.quantities is None for r in [*full.values(), *coupled.values()]):
+        return False
     try:
         judge.check_members(len(full), len(coupled), len(full.keys() & coupled.keys()))
     except ValueError:
@@ -125,7 +128,8 @@ def judged(full, coupled):
 
 
 def _check_quantities(runs):
-    """Every run recorded the quantities of interest, with the same definitions."""
+    """Every run recorded the quantities of interest, with the same definitions (asked of
+    a verdict, and of runs of which some recorded them: none mixes the two)."""
     for r in runs:
         if r.quantities is None:
             raise ValueError(f"{r.folder} has no {QUANTITIES}: a run recorded before the "
