@@ -241,7 +241,8 @@ def _plan_cells(positions, lo, hi, cell):
         raise ValueError(f"map grid: cell {cell!r} over {lo.tolist()}–{hi.tolist()}")
     n = np.maximum(np.ceil((hi - lo) / cell - 1e-9).astype(int), 1)
     ij = np.clip(((np.asarray(positions, float)[:, :2] - lo) // cell).astype(int), 0, n - 1)
-    return ij[:, 0] * n[1] + ij[:, 1], n, [lo[a] + cell * (np.arange(n[a]) + 0.5) for a in (0, 1)]
+    centres = [lo[a] + cell * (np.arange(n[a]) + 0.5) for a in (0, 1)]
+    return ij[:, 0] * n[1] + ij[:, 1], n, centres
 
 
 def mean_damage_maps(full, coupled, lo, hi, cell):

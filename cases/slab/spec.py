@@ -11,7 +11,7 @@ from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
 from orchestrator.run.autozone import (TripLevels, ahead_level, damage_level, omega_level,
                                        stress_level)
-from cases.slab.scales import (CONCRETES, DURATIONS, PER_SCALE, SCALES, SLAB, STEPS_SAFETY,
+from cases.slab.scales import (CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY,
                                TABLE_DURATION, concrete_set, duration)
 
 
@@ -184,8 +184,7 @@ class SlabSpec:
         if self.steps is None and chosen:
             # the table's steps over its duration, or the measured one of this impact: the
             # critical step is ∝ 1/√young
-            length = (1.0 if self.scale not in DURATIONS
-                      else duration(self.scale, self.impactor_speed) / TABLE_DURATION)
+            length = duration(self.scale, self.impactor_speed) / TABLE_DURATION
             self.steps = math.ceil(round(table.steps * length * STEPS_SAFETY / self.dt_safety
                                          * math.sqrt(material.cpm["young"] / concrete_set(
                                              self.scale, "plain").cpm["young"]), 6))
