@@ -58,7 +58,7 @@ setup-image-build: .setup-image-build-done
 SEEDS ?= 1,2,3,4,5,6
 RUN_ZONE = --scale small --fe-material damage --force
 run: setup
-	$(PY) -m cli slab --model full --impactor-speed 10 $(RUN_ZONE) --seeds $(SEEDS) --jobs 2 --quiet --out results/slab-small/10ms/full
+	$(PY) -m cli slab --model full --impactor-speed 10 --scale small --force --seeds $(SEEDS) --jobs 2 --quiet --out results/slab-small/10ms/full
 	$(PY) -m cli slab --model coupled --impactor-speed 10 $(RUN_ZONE) --seeds $(SEEDS) --jobs 2 --quiet --out results/slab-small/10ms/coupled
 	$(PY) -m cli compare results/slab-small/10ms/full results/slab-small/10ms/coupled --out results/slab-small/10ms/compare --force
 	$(PY) -m cli slab --model coupled --impactor-speed 40 $(RUN_ZONE) --out results/slab-small/40ms/coupled \

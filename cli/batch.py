@@ -34,7 +34,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from time import perf_counter
 
-from common.files import read_text, write_text
+from common.files import read_text, record, write_text
 
 # run folders; also yade-batch's built descriptions (`a=1,!OMP_NUM_THREADS=2`)
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._=,+!-]*$")
@@ -255,6 +255,7 @@ def run_job(job, out, env=None):
     env = dict(os.environ if env is None else env)
     env.update(job.environment(out))
     t0 = perf_counter()
+    record(out / "logs" / f"{job.name}.log")
     with open(out / "logs" / f"{job.name}.log", "w") as log:
         proc = subprocess.run(job.command(out), stdout=log, stderr=subprocess.PIPE,
                               text=True, env=env)

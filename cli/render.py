@@ -60,7 +60,7 @@ def render(run_dir, out, times=None, animate=False, force=False):
     command = pvpython_command()
     if times is not None and any(t < 0 for t in times):
         raise ValueError(f"render: --times must be >= 0, got {times}")
-    out = prepare_out(out, force)
+    out = prepare_out(out, force, inputs=[run_dir])
     job = {"run": str(Path(run_dir).resolve()), "out": str(out.resolve()), "times": times,
            "cut": cut, "animate": bool(animate)}
     with tempfile.TemporaryDirectory() as tmp:

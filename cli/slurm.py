@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from cli.batch import prepare_batch, run_job, write_summary
-from common.files import write_text
+from common.files import record, write_text
 
 SCRIPT = "batch.sbatch"
 ROOT = Path(__file__).resolve().parents[1]
@@ -70,6 +70,7 @@ def run_task(jobs, out, task):
     rows = out / "rows"
     rows.mkdir(exist_ok=True)
     write_text(rows / f"{task:05d}.json", json.dumps(row))
+    record(out / ".summary.lock")
     with open(out / ".summary.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         write_summary(out, [json.loads(p.read_text()) for p in sorted(rows.glob("*.json"))])

@@ -4,13 +4,21 @@ whose errors name the file and the position. Each file is written under a tempor
 its folder and renamed into place, so that no reader ever sees it half-written, with the
 mode a plain `open` would give it under the user's umask (0644 under umask 022), so that
 results in a shared folder or a Docker volume are readable by others.
+
+A results folder carries a marker file (MARKER) that lists, below its first line, every file
+and folder the project wrote in it (`record`, called by every writer here): what `--force`
+may replace, and nothing else (`unrecorded`).
 """
 import json
 import os
+import re
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
+MARKER = ".yade-fenicsx-results"
+_recorded = set()       # (marker, entry) pairs this process has written: each once
+_TEMPORARY = re.compile(r"^\.(.+)\.[a-z0-9_]{8}(\.[^.]*)?$")   # atomic's: .NAME.XXXXXXXX.SUFFIX
 
 def file_mode():
     """0666 less the process's umask (read without changing it for good)."""
@@ -35,6 +43,53 @@ def atomic(path):
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+    record(path)
+
+
+def mark(folder):
+    """Make `folder` a results folder of the project: its marker, with an empty list."""
+    marker = Path(folder).absolute() / MARKER
+    _recorded.difference_update({e for e in _recorded if e[0] == marker})   # a folder made anew
+    with atomic(marker) as tmp:
+        tmp.write_text("results folder written by yade-fenicsx-coupling; `--force` may "
+                       "replace what the lines below list, and nothing else\n")
+
+
+def record(path):
+    """Add `path` (a file or a whole folder the project wrote) to the list of the nearest
+    results folder above it, if any."""
+    path = Path(path).absolute()
+    for folder in path.parents:
+        marker = folder / MARKER
+        if marker.is_file():
+            entry = path.relative_to(folder).as_posix()
+            if entry != MARKER and (marker, entry) not in _recorded:
+                with open(marker, "a") as f:      # appends are whole lines, even from two processes
+                    f.write(entry + "\n")
+                _recorded.add((marker, entry))
+            return
+
+
+def unrecorded(folder):
+    """The files under results folder `folder` (paths relative to it) that no marker in it
+    lists: the project did not write them. The temporary file of a listed file (atomic's,
+    left by a run killed as it wrote) counts as the project's."""
+    folder = Path(folder)
+    found, lists = [], {}
+    for here, dirs, files in os.walk(folder):
+        here = Path(here)
+        if MARKER in files:
+            lists[here] = set((here / MARKER).read_text().splitlines()[1:]) | {MARKER}
+        root = next((p for p in (here, *here.parents) if p in lists), None)
+        for name in files:
+            rel = (here / name).relative_to(root or here)
+            temporary = _TEMPORARY.match(name)
+            if temporary:
+                rel = rel.with_name(temporary[1])
+            if root is None or not any(p.as_posix() in lists[root]
+                                       for p in (rel, *rel.parents[:-1])):
+                found.append((here / name).relative_to(folder).as_posix())
+    return sorted(found)
 
 
 def cache_folder(name):
@@ -112,12 +167,6 @@ def save_figure(fig, path, dpi=120):
     with atomic(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
-
-
-def finish(path):
-    """Give a file written in place by a library (e.g. an HDF5 file kept open across
-    frames) the umask's mode."""
-    os.chmod(path, file_mode())
 
 
 def _jsonable(x):

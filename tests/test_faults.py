@@ -18,10 +18,10 @@ import pytest
 
 from cases.generic import CaseModel
 from cases.kinds import case_inputs, load_case as load
-from common.files import save_npz, write_json
+from common.files import record, save_npz, unrecorded, write_json, write_text
 from orchestrator.casefile import CaseError
 from cli.main import INTERRUPTED, main
-from orchestrator.run.folder import FAILED, MARKER, prepare_out, settle_failure
+from orchestrator.run.folder import FAILED, MARKER, ResultsExist, prepare_out, settle_failure
 from orchestrator.run.restart import check_inputs
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -108,6 +108,95 @@ def test_force_replaces_only_a_results_folder_of_the_project(tmp_path, capsys):
     code = main(["run", str(results / "block.toml"), "--out", str(results), "--force"])
     assert "an input of this run: --force would delete it" in one_line_error(capsys, code)
     assert (results / "block.toml").is_file()
+
+
+def test_force_replaces_only_what_the_project_wrote(tmp_path):
+    """The marker lists what the project wrote: files, a folder written whole (a checkpoint),
+    a nested results folder's own list, a temporary file a kill left. A file the user added
+    stops --force, named; once moved out, --force replaces the folder."""
+    run = prepare_out(tmp_path / "run")
+    write_json(run / "summary.json", {})
+    (run / "checkpoint").mkdir()
+    (run / "checkpoint" / "scene.yade.gz").write_bytes(b"")     # written by YADE itself
+    record(run / "checkpoint")
+    (run / ".summary.json.k2x9_a0q.json").write_text("")          # atomic's, killed
+    member = prepare_out(run / "seed-1")
+    write_text(member / "run.log", "")
+    assert unrecorded(run) == []
+    (run / "notes.txt").write_text("mine")
+    (member / "analysis").mkdir()
+    (member / "analysis" / "fit.py").write_text("mine")
+    with pytest.raises(ResultsExist, match=r"holds 2 file\(s\) the project did not write "
+                                           r"\(notes.txt, seed-1/analysis/fit.py\)"):
+        prepare_out(run, force=True)
+    assert (run / "notes.txt").read_text() == "mine" and (run / "summary.json").is_file()
+    (run / "notes.txt").unlink()
+    shutil.rmtree(member / "analysis")
+    prepare_out(run, force=True)
+    assert [p.name for p in run.iterdir()] == [MARKER]
+    # a marker that lists nothing (a folder of an earlier version): nothing is the project's
+    (run / "summary.json").write_text("{}")
+    (run / MARKER).write_text("results folder written by yade-fenicsx-coupling\n")
+    with pytest.raises(ResultsExist, match=r"holds 1 file\(s\) .* \(summary.json\)"):
+        prepare_out(run, force=True)
+
+
+def test_slab_force_never_replaces_the_run_its_zone_comes_from(tmp_path, capsys):
+    grown = prepare_out(tmp_path / "grown")
+    write_json(grown / "summary.json", {"zone_outcome": "clean", "zone_final": {
+        "cells": [[6, 4], [6, 5]], "grid": {"n": [15, 12, 4]}}})
+    code = main(["slab", "--model", "coupled", "--zone-from", str(grown), "--out", str(grown),
+                 "--force"])
+    assert "an input of this run: --force would delete it" in one_line_error(capsys, code)
+    assert (grown / "summary.json").is_file()
+
+
+@pytest.mark.parametrize("spec, args, message", [
+    ({"scale": "medium"}, [], "its run has scale 'medium', this one 'small': its zone's cells "
+                              "lie on another FE grid"),
+    ({}, ["--fe-ratio", "2"], "its run has fe_ratio 3.0, this one 2.0"),
+    ({"scale": "small"}, ["--model", "full"], "--zone-from acts only on the coupled model"),
+])
+def test_a_zone_from_another_grid_or_for_the_full_model_is_refused(tmp_path, capsys, spec, args,
+                                                                   message):
+    grown = prepare_out(tmp_path / "grown")
+    write_json(grown / "summary.json", {
+        "zone_outcome": "clean", "spec": {"fe_ratio": 3.0, **spec},
+        "zone_final": {"cells": [[6, 4]], "grid": {"n": [15, 12, 4]}}})
+    code = main(["slab", "--model", "coupled", "--zone-from", str(grown), *args,
+                 "--out", str(tmp_path / "x")])
+    assert message in one_line_error(capsys, code)
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--model", "coupled", "--fe-material", "elastic", "--fracture-energy", "100"],
+     "--fracture-energy acts only on the coupled model with fe.material 'damage'"),
+    (["--model", "full", "--trip-stress", "3"], "--trip-stress acts only on the coupled model"),
+    (["--model", "coupled", "--zone", "box", "--zone-limit", "1.0"],
+     "--zone-limit acts only on the coupled model with zone 'auto' or 'grow'"),
+    (["--model", "coupled", "--fe-material", "damage", "--trip-stress", "3"],
+     "--trip-stress acts only on the coupled model with zone 'auto' or 'grow' and fe.material "
+     "'elastic'"),
+    (["--model", "full", "--fe-material", "damage"], "--fe-material acts only on the coupled"),
+    (["--model", "coupled", "--elastic-outside"], "--elastic-outside acts only on the full"),
+    (["--model", "coupled", "--zone", "box", "--grow-shear"],
+     "--grow-shear acts only on the coupled model with zone 'grow'"),
+])
+def test_an_option_that_cannot_act_on_the_run_is_refused(tmp_path, capsys, args, message):
+    code = main(["slab", *args, "--out", str(tmp_path / "x")])
+    assert message in one_line_error(capsys, code)
+    assert not (tmp_path / "x").exists()
+
+
+def test_a_case_key_that_cannot_act_on_the_run_is_refused(tmp_path, capsys):
+    case = tmp_path / "slab.toml"
+    case.write_text('[case]\nkind = "slab"\n[slab]\nmodel = "full"\n'
+                    '[zone]\ntrip_stress = 3.0\n')
+    code = main(["run", str(case), "--out", str(tmp_path / "x")])
+    assert f"{case}: zone.trip_stress acts only on the coupled model" in one_line_error(
+        capsys, code)
+    assert not (tmp_path / "x").exists()
 
 
 @pytest.mark.parametrize("out, message", [

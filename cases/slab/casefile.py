@@ -1,6 +1,8 @@
 """Slab case files (`kind = "slab"`): the keys are SlabSpec's fields (their tables in
 SlabSpec's metadata), plus slab.model and the bars' [[reinforcement]] layers
 (cases.reinforcement.Layer's keys; given, the slab is reinforced with them)."""
+from dataclasses import fields
+
 from cases.reinforcement import DIRECTIONS, FACES
 from cases.slab.model import MODELS
 from cases.slab.runs import run as run_model
@@ -35,9 +37,24 @@ def check(data, folder, problems):
 
 def spec(case):
     """The SlabSpec of a slab case (keys left out keep SlabSpec's defaults)."""
-    zone = SlabSpec.zone_for(case["slab"]["model"], case["slab"].get("zone"), "slab.zone =")
+    model = case["slab"]["model"]
+    zone = SlabSpec.zone_for(model, case["slab"].get("zone"), "slab.zone =")
     data = {**case.data, "slab": {**case.data["slab"], "zone": zone}}
-    return spec_from_case(SlabSpec, data, reinforcement=case.data["reinforcement"])
+    s = spec_from_case(SlabSpec, data, reinforcement=case.data["reinforcement"])
+    keys = {f.name: f"{f.metadata['section']}.{f.metadata['name'] or f.name}"
+            for f in fields(SlabSpec) if "kind" in f.metadata}
+    inert = s.inert(model, [name for name, key in keys.items() if _given(data, key, name)])
+    if inert:
+        raise ValueError(f"{case.path}: {keys[inert[0]]} acts only on {inert[1]}; this case's "
+                         f"model is {model!r}, zone {s.zone!r}, fe.material {s.fe_material!r}")
+    return s
+
+
+def _given(data, key, name):
+    """Whether the case sets `key` (section.name) to other than SlabSpec's default."""
+    section, field = key.split(".")
+    return (field in data.get(section, {}) and
+            data[section][field] != SlabSpec.__dataclass_fields__[name].default)
 
 
 def run(case, out, force=False, quiet=False, resume=False):

@@ -224,6 +224,15 @@ class SlabSpec:
                                     f"{self.dt_safety:g} × critical, {self.variant}, "
                                     f"{self.weighting} (docs/wave1d.md)")
 
+    def inert(self, model, given):
+        """The first of the keys `given` (field names) that cannot act on a `model` run of
+        this spec, and what it needs; None when every one acts."""
+        for name in given:
+            acts, needs = NEEDS.get(name, (None, None))
+            if acts is not None and not acts(self, model):
+                return name, needs
+        return None
+
     @staticmethod
     def zone_for(model, zone, name):
         """The zone of a `model` run given `zone` as the option or key `name` (None: not
@@ -289,3 +298,34 @@ class SlabSpec:
                              f"FE cells {widest:.3g} m wide: it must exceed fc² h / 2E = "
                              f"{self.compressive_strength ** 2 * widest / (2 * self.young):.4g}"
                              f" J/m² (or a smaller fe_ratio)")
+
+
+# What each key needs to act on a run (model: "full" or "coupled"): given where it cannot, it
+# is refused (SlabSpec.inert), never recorded as if it had been used.
+def _coupled(s, m):
+    return m == "coupled"
+
+
+def _grown(s, m):
+    return m == "coupled" and s.zone in ("auto", "grow")
+
+
+NEEDS = {
+    "elastic_outside": (lambda s, m: m == "full", "the full model"),
+    "mpi": (lambda s, m: m == "full", "the full model"),
+    **{k: (_coupled, "the coupled model (the FE and the coupling)")
+       for k in ("band_ratio", "variant", "weighting", "relaxation", "rotations", "young",
+                 "poisson", "fe_material", "tensile_strength")},
+    "compressive_strength": (lambda s, m: m == "coupled" or s.reinforced,
+                             "the coupled model (its FE) or bars (their bond)"),
+    **{k: (lambda s, m: m == "coupled" and s.fe_material == "damage",
+           "the coupled model with fe.material 'damage'")
+       for k in ("fracture_energy", "compressive_fracture_energy", "trip_damage")},
+    **{k: (_grown, "the coupled model with zone 'auto' or 'grow'")
+       for k in ("zone_start", "zone_limit", "fallback", "trip_omega", "stress_every",
+                 "links_every", "zone_margin", "zone_ahead", "zone_cost")},
+    "trip_stress": (lambda s, m: _grown(s, m) and s.fe_material == "elastic",
+                    "the coupled model with zone 'auto' or 'grow' and fe.material 'elastic'"),
+    "grow_shear": (lambda s, m: m == "coupled" and s.zone == "grow",
+                   "the coupled model with zone 'grow'"),
+}

@@ -38,12 +38,16 @@ def run(args):
     elif args.out and args.model:
         if args.seeds and args.seed is not None:
             raise ValueError("give either --seed or --seeds, not both")
-        cells = _zone_cells(args.zone_from) if args.zone_from else None
+        zone_run = _zone_run(args.zone_from) if args.zone_from else None
         model = args.model
         args.zone = slab.SlabSpec.zone_for(model, args.zone, "--zone")
-        spec = spec_from_args(slab.SlabSpec, args, zone_cells=cells)
+        spec = spec_from_args(slab.SlabSpec, args,
+                              zone_cells=zone_run and zone_run["zone_final"]["cells"])
+        if zone_run:
+            _check_zone_fits(args.zone_from, zone_run, spec)
+        _refuse_inert(args, spec, model)
         slab.model.check_ranks(spec, model)     # before mpiexec starts
-        folder.check_out(args.out, args.force)      # refuse before building, not after
+        folder.check_out(args.out, args.force, _inputs(args))   # refuse before building, not after
     else:
         raise ValueError("give --model full|coupled and --out DIR for a new run, or --resume DIR")
     if args.seeds:
@@ -83,7 +87,7 @@ def run(args):
         out, start = Path(args.resume), None
         folder.resume_folder(out)
     else:
-        out, start = Path(args.out), lambda: folder.prepare_out(args.out, args.force)
+        out, start = Path(args.out), lambda: folder.prepare_out(args.out, args.force, _inputs(args))
     s = slab.run(spec, model, out, quiet=args.quiet, resume=bool(args.resume), start=start)
     if s.get("zone_outcome") == "limit" and "n_spheres" not in s:
         return 1                # the one line saying why was printed
@@ -91,9 +95,26 @@ def run(args):
     return 0
 
 
-def _zone_cells(folder):
-    """The in-plane cells of the zone the automatic or growing zone run in `folder` ended
-    with."""
+def _refuse_inert(args, spec, model):
+    """An option given that cannot act on this run: one line naming it and what it needs."""
+    from cases.slab import SlabSpec
+    from cli.commands._options import keyed_fields
+    inert = spec.inert(model, [f.name for f in keyed_fields(SlabSpec)
+                               if getattr(args, f.name) is not None])
+    if inert:
+        raise ValueError(f"{option(inert[0])} acts only on {inert[1]}; this run is --model "
+                         f"{model}, zone {spec.zone!r}, fe.material {spec.fe_material!r}")
+    if args.zone_from and model != "coupled":
+        raise ValueError("--zone-from acts only on the coupled model (the DE zone it fixes)")
+
+
+def _inputs(args):
+    """The folders a new run reads, which --force must never replace."""
+    return [args.zone_from] if args.zone_from else []
+
+
+def _zone_run(folder):
+    """The summary of the automatic or growing zone run in `folder`, which ended clean."""
     import json
     from pathlib import Path
     path = Path(folder) / "summary.json"
@@ -104,7 +125,27 @@ def _zone_cells(folder):
     if summary.get("zone_outcome") != "clean" or "zone_final" not in summary:
         raise ValueError(f"--zone-from {folder}: not a zone 'auto' or 'grow' run that ended "
                          f"clean (zone_outcome {summary.get('zone_outcome')!r})")
-    return summary["zone_final"]["cells"]
+    return summary
+
+
+def _check_zone_fits(folder, summary, spec):
+    """The zone's cells of the run `folder` (its summary) are on this run's FE grid: the same
+    scale, sphere size and FE ratios, the same cells. Another seed or impact is noted."""
+    from cases.slab.geometry import slab_grid
+    theirs = summary.get("spec", {})
+    for key in ("scale", "radius", "fe_ratio", "fe_ratio_thickness"):
+        if key in theirs and theirs[key] != getattr(spec, key):
+            raise ValueError(f"--zone-from {folder}: its run has {key} {theirs[key]!r}, this one "
+                             f"{getattr(spec, key)!r}: its zone's cells lie on another FE grid")
+    recorded = summary["zone_final"].get("grid", {}).get("n")
+    grid = [int(n) for n in slab_grid(spec).n]
+    if recorded is not None and recorded != grid:
+        raise ValueError(f"--zone-from {folder}: its zone's FE grid has {recorded} cells, this "
+                         f"run's {grid}")
+    for key in ("seed", "impactor_speed"):
+        if key in theirs and theirs[key] != getattr(spec, key):
+            print(f"note: --zone-from {folder}: the zone was grown with {key} "
+                  f"{theirs[key]!r}, this run has {getattr(spec, key)!r}")
 
 
 def _from_checkpoint(args):
@@ -150,7 +191,7 @@ def _ensemble(model, args, spec):
     from orchestrator.run.folder import prepare_out
     from orchestrator.run.restart import Stopped
     from yade_side import cores
-    top = prepare_out(args.out, args.force)
+    top = prepare_out(args.out, args.force, _inputs(args))
     jobs = args.jobs or max(1, min(len(args.seeds), cores() // max(1, spec.mpi - 1)))
     quiet = args.quiet or jobs > 1          # one progress bar per terminal
     running, lock, stopped = set(), threading.Lock(), []

@@ -103,15 +103,12 @@ def run(args):
 
 def _prepare(out):
     """The study's folder: made, or an earlier one of the project's carried on."""
-    from common.files import write_text
-    from orchestrator.run.folder import MARKER, check_out
-    if out.exists() and any(out.iterdir()) and not (out / MARKER).is_file():
-        raise ValueError(f"study: --out {out} exists and was not written by this project (no "
-                         f"{MARKER}): choose another folder")
-    check_out(out, force=True)
-    out.mkdir(parents=True, exist_ok=True)
+    from common.files import MARKER, mark
+    from orchestrator.run.folder import check_out
     if not (out / MARKER).is_file():
-        write_text(out / MARKER, "results folder written by yade-fenicsx-coupling\n")
+        check_out(out)        # a new folder, or an empty one: nothing of an earlier study
+        out.mkdir(parents=True, exist_ok=True)
+        mark(out)
 
 
 def _timing(runs, outcomes, out):

@@ -1,6 +1,8 @@
 """Results folders, shared by every command. A folder the project makes carries a marker
-file; `--force` replaces only such a folder, never one the project did not write, never the
-current folder or one above it, never one that holds an input of the run. Commands check the
+file that lists what the project wrote in it (common.files); `--force` replaces only such a
+folder, and only when the list holds every file in it: never a folder or a file the project
+did not write, never the current folder or one above it, never one that holds an input of
+the run. Commands check the
 folder (`check_out`) before the slow work and make it (`prepare_out`) once every input is
 validated. A command that fails leaves no folder holding only its marker, and marks the
 others it made failed (`FAILED`, the error), keeping what the run wrote for the diagnosis."""
@@ -9,7 +11,8 @@ import shutil
 import tempfile
 from pathlib import Path
 
-MARKER = ".yade-fenicsx-results"
+from common.files import MARKER, mark, unrecorded
+
 FAILED = "FAILED"
 
 _made = []    # folders prepare_out made in this process (for settle_failure)
@@ -48,6 +51,13 @@ def check_out(path, force=False, inputs=()):
             if item == where or where in item.parents:
                 raise ResultsExist(f"--out {path} holds {item}, an input of this run: --force "
                                    f"would delete it; choose another --out")
+        foreign = unrecorded(out)
+        if foreign:
+            shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5
+                                              else "")
+            raise ResultsExist(f"results folder {path} holds {len(foreign)} file(s) the project "
+                               f"did not write ({shown}): --force replaces only what it wrote; "
+                               f"move them out or choose another --out")
         return True
     return False
 
@@ -71,13 +81,11 @@ def _writable(out):
 def prepare_out(path, force=False, inputs=()):
     """Create the run folder `path` with its marker; refuse as check_out does. Call it once
     every input is validated: with `force` it replaces an earlier results folder."""
-    from common.files import write_text
     out = Path(path)
     if check_out(out, force, inputs):
         shutil.rmtree(out)
     out.mkdir(parents=True, exist_ok=True)
-    write_text(out / MARKER, "results folder written by yade-fenicsx-coupling; "
-                             "`--force` may replace it\n")
+    mark(out)
     _made.append(out)
     return out
 

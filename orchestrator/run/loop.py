@@ -113,7 +113,9 @@ def _loop(m, schedule, recorder, title, quiet):
 @contextmanager
 def _run_log(out):
     """run.log in the results folder for the run's duration; errors are logged too."""
+    from common.files import record
     handler = logging.FileHandler(out / "run.log")
+    record(out / "run.log")
     handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
     log.addHandler(handler)
     log.setLevel(logging.INFO)

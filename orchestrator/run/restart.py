@@ -80,11 +80,14 @@ def fingerprint(model, title, steps):
 def save(out, record, model, meta, seconds):
     """Write the checkpoint of step record.n into out/checkpoint, atomically; `seconds`: the
     run's time split so far."""
+    from common import files
     from yade_side.checkpoint import save_scene
     out = Path(out)
     new, old, final = out / f".{CHECKPOINT}.new", out / f".{CHECKPOINT}.old", out / CHECKPOINT
     shutil.rmtree(new, ignore_errors=True)
     new.mkdir()
+    for folder in (new, old, final):      # the project's, whatever a kill leaves of the swap
+        files.record(folder)
     save_scene(new / "yade")
     state = {"n": record.n, "times": np.array(record.times),
              "history": np.array(record.history), "energy": np.array(record.energy).reshape(-1, 2),
