@@ -49,7 +49,10 @@ def main(argv=None):
     from orchestrator.run.loop import StepFailed
     from orchestrator.run.restart import Stopped
     from yade_side.checkpoint import CheckpointError
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as e:          # --help, or a command-line mistake already printed
+        return e.code
     args.argv = list(sys.argv[1:] if argv is None else argv)     # to start again (cli.mpi)
     folder.forget()
     try:

@@ -2,6 +2,36 @@
 slab.mpi) starts itself again under `mpiexec -n N`, where rank 0 runs it and the other ranks
 own the spheres."""
 
+RANK_MEMORY = 0.25e9     # bytes: a rank's process with YADE and MPI, before its spheres (249 MB)
+
+
+def check_machine(ranks, runs=1):
+    """Refuse (ValueError, one line) `runs` MPI runs of `ranks` each at once that this machine
+    cannot hold, before mpiexec starts: each rank but rank 0 (which drives) needs a core of its
+    own, and each RANK_MEMORY of the memory available."""
+    from yade_side import cores
+    workers, have = runs * (ranks - 1), cores()
+    where = f"{runs} runs × --mpi {ranks}" if runs > 1 else f"--mpi {ranks}"
+    if workers > have:
+        raise ValueError(f"{where}: {workers} workers (every rank but rank 0, which drives) on "
+                         f"{have} cores: at most {have // runs + 1} ranks per run here")
+    free = _available_memory()
+    if free is not None and runs * ranks * RANK_MEMORY > free:
+        raise ValueError(f"{where}: {runs * ranks} processes need "
+                         f"{runs * ranks * RANK_MEMORY / 1e9:.1f} GB or more, "
+                         f"{free / 1e9:.1f} GB are available")
+
+
+def _available_memory():
+    """MemAvailable of /proc/meminfo (bytes), None where there is none."""
+    try:
+        for line in open("/proc/meminfo"):
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
 
 def on_ranks(ranks, args):
     """In one process: this command again under mpiexec, its exit code. Under mpiexec: None on
@@ -14,6 +44,7 @@ def on_ranks(ranks, args):
     from mpi4py import MPI
     comm = MPI.COMM_WORLD
     if comm.size == 1:
+        check_machine(ranks)
         return _mpiexec(launcher, ranks, args)
     if comm.size != ranks:
         raise ValueError(f"--mpi {ranks} under mpirun -n {comm.size}: give the same count, or "
@@ -36,15 +67,20 @@ def _mpiexec(launcher, ranks, args):
     # each rank on one YADE thread unless --threads says otherwise; root may run it (containers)
     env = dict(environment_without_mpi(), OMP_NUM_THREADS=str(args.threads or 1),
                OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    # mpiexec in a session of its own: Ctrl-C in a terminal reaches this process only, not
+    # mpiexec as well (which, signalled twice, kills the ranks before rank 0 can say why);
+    # and it is told to end when this process dies, however it dies
     proc = subprocess.Popen([launcher, "--oversubscribe", "-n", str(ranks), sys.executable,
-                             "-m", "cli", *args.argv], env=env)
-    # a stop asked of this process goes to the run (mpiexec passes it on to rank 0, which
-    # stops; the workers ignore it), and its exit code says so as a one-process run's would
+                             "-m", "cli", *args.argv], env=env, start_new_session=True,
+                            preexec_fn=_end_with_parent)
+    # a stop asked of this process goes to the run as SIGTERM (mpiexec passes it on to every
+    # rank: rank 0 ends its step and says why, the workers ignore it), and its exit code says
+    # so as a one-process run's would
     asked = []
 
     def forward(signum, _frame):
         asked.append(signum)
-        proc.send_signal(signum)
+        proc.send_signal(signal.SIGTERM)
     previous = {s: signal.signal(s, forward) for s in (signal.SIGTERM, signal.SIGINT)}
     try:
         code = proc.wait()
@@ -52,6 +88,13 @@ def _mpiexec(launcher, ranks, args):
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
+
+
+def _end_with_parent():
+    """In the child before exec: SIGTERM when the parent dies (Linux's PR_SET_PDEATHSIG)."""
+    import ctypes
+    import signal
+    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)     # 1: PR_SET_PDEATHSIG
 
 
 # what Open MPI's MPI_Init sets in a process's environment: a child that inherits it joins

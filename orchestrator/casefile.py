@@ -13,6 +13,8 @@ import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from orchestrator.coupling.assembly import MIN_SAFETY
+
 UNSET = object()          # no default: the key is left out (the case module's default applies)
 REQUIRED = object()
 FACES = ("xmin", "xmax", "ymin", "ymax", "zmin", "zmax")
@@ -99,8 +101,22 @@ def non_negative(v):
     return None if v >= 0 else ">= 0"
 
 
-def at_least_one(v):
-    return None if v >= 1 else ">= 1"
+def within(low, high, unit="", low_open=True):
+    """A check: low < v <= high (low <= v when not low_open): the physical range of a key, so
+    that no absurd value reaches YADE's or PETSc's C++."""
+    text = f"in {'(' if low_open else '['}{low:g}, {high:g}]{' ' + unit if unit else ''}"
+
+    def check(v):
+        return None if (low < v if low_open else low <= v) and v <= high else text
+    return check
+
+
+# physical ranges shared by the cases' keys
+MODULUS = within(1e6, 1e12, "Pa")
+STRENGTH = within(1e5, 1e9, "Pa")
+DENSITY = within(100, 2e4, "kg/m³", low_open=False)
+FRACTURE_ENERGY = within(0, 1e7, "J/m²")
+SEED = within(0, 2**31 - 1, low_open=False)        # YADE's packings take a C int
 
 
 MAX_STEPS = 10**9      # beyond, a run takes weeks (at >= 1 ms per step): a mistake
@@ -112,11 +128,6 @@ def step_count(v):
 
 def poisson_range(v):
     return None if -1 < v < 0.5 else "in (-1, 0.5)"
-
-
-# A step below this × the critical one buys nothing and costs steps without end (the slab's
-# default run would take 10⁸ of them); the relaxation rule reads the factor to 6 digits.
-MIN_SAFETY = 1e-3
 
 
 def safety_range(v):
@@ -179,9 +190,9 @@ def check_spec(spec, owner):
 # the [case] table every kind shares (the kinds: cases.kinds)
 CASE = {"name": Key(string, REQUIRED), "kind": Key(string, "generic"),
         "description": Key(string, "")}
-OUTPUT = {"every": Key(integer, 200, at_least_one), "sample_every": Key(integer, 5, at_least_one),
-          "check_every": Key(integer, 50, at_least_one),
-          "checkpoint_every": Key(integer, 1000, at_least_one)}
+OUTPUT = {"every": Key(integer, 200, step_count), "sample_every": Key(integer, 5, step_count),
+          "check_every": Key(integer, 50, step_count),
+          "checkpoint_every": Key(integer, 1000, step_count)}
 @dataclass
 class Kind:
     """A kind of case: its schema {table: {key: Key}}, and check(data, folder, problems) of

@@ -112,7 +112,7 @@ def test_cli_reports_bad_input_without_traceback(tmp_path):
     r = subprocess.run([sys.executable, "-m", "cli", "calibrate", "--radius", "-0.01",
                         "--out", str(tmp_path / "c")], cwd=REPO, capture_output=True, text=True)
     assert r.returncode == 2
-    assert "error: sphere radius must be > 0, got -0.01" in r.stderr
+    assert "argument --radius: must be a finite number in (0, 0.1], got '-0.01'" in r.stderr
     assert "Traceback" not in r.stderr
 
 

@@ -61,8 +61,8 @@ every = "often"
     assert problems == [
         "coupling.colour: unknown key (known here: element_size, layers, relaxation, rotations, "
         "variant, weighting, zone_axes, zone_hi, zone_lo)",
-        "coupling.layers = 0: must be >= 1",
-        "coupling.relaxation = -2.0: must be > 0",
+        "coupling.layers = 0: must be in [1, 1000]",
+        "coupling.relaxation = -2.0: must be in (0, 1e+06]",
         "time.dt_safety = 1.5: must be in [0.001, 1] (× the critical step)",
         "output.every = 'often': expected an integer",
     ]
@@ -70,7 +70,7 @@ every = "often"
 
 
 @pytest.mark.parametrize("change, message", [
-    (("radius = 0.02", "radius = 0"), "de.packing[0].radius = 0: must be > 0"),
+    (("radius = 0.02", "radius = 0"), "de.packing[0].radius = 0: must be in (0, 1] m"),
     (("radius = 0.02", "radius = true"), "de.packing[0].radius = True: expected a finite number"),
     (("n = [20, 20, 2]", "n = [20, 20]"), "fe.n = [20, 20]: expected a list of 3 positive integers"),
     (("zone_lo = [0.42, 0.42, 0.0]", "zone_lo = [-0.12, 0.42, 0.0]"),

@@ -221,7 +221,7 @@ def test_a_margin_that_is_not_positive_is_one_line(tmp_path, capsys, margin):
     assert main(["compare", str(tmp_path / "full"), str(tmp_path / "full" / "seed-1"),
                  "--margin", margin, "--out", str(tmp_path / "cmp")]) == 2
     err = capsys.readouterr().err
-    assert f"margin {float(margin)!r}: needs a finite number > 0" in err
+    assert f"--margin: must be a finite number in (0, 1], got '{margin}'" in err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "cmp").exists()
 
 

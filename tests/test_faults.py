@@ -3,6 +3,7 @@ non-zero exit and one line naming the file, key or position and the value (never
 traceback), a resumed run refuses a changed case, and what used to be snapped or accepted
 silently is refused or warned about with the distance (docs/case-files.md)."""
 import json
+import math
 import os
 import re
 import shutil
@@ -511,8 +512,83 @@ def test_a_stopped_ensemble_stops_its_members_and_starts_no_more(tmp_path):
         "stopped: ensemble")
     assert "resume with --resume" in err             # the member's own line
     assert not (out / "seed-2").exists()
-    members = subprocess.run(["pgrep", "-f", f"--out {out}/seed-"], capture_output=True)
+    members = subprocess.run(["pgrep", "-f", "--", f"--out {out}/seed-"], capture_output=True)
+    assert members.returncode == 1          # none found (2: pgrep could not search)
     assert members.stdout == b""
+
+
+# --- the bad-input sweep: every numeric option, NaN, inf, 0, negative, huge ----------------
+SWEPT = ("nan", "inf", "-inf", "0", "-1", "1e300")
+
+
+def numeric_options():
+    """(command, option, its argparse type, how many values) of every option that takes
+    numbers."""
+    from cli.main import build_parser
+    sub = next(a for a in build_parser()._actions if a.dest == "command")
+    for command, p in sub.choices.items():
+        for a in p._actions:
+            if a.option_strings and a.type is not None and a.choices is None and \
+                    getattr(a.type, "__name__", "") not in ("_literal",):
+                yield command, a.option_strings[-1], a.type, a.nargs
+
+
+@pytest.mark.parametrize("command, flag, kind, nargs", list(numeric_options()),
+                         ids=lambda x: x if isinstance(x, str) else "")
+def test_every_numeric_option_has_a_range_and_refuses_what_is_outside(tmp_path, capsys,
+                                                                      command, flag, kind, nargs):
+    """Parsed by a range of its own (no plain int or float): what lies outside gets one line,
+    exit 2, before anything is made."""
+    import argparse
+    if kind in (int, float):
+        pytest.fail(f"{command} {flag}: a plain {kind.__name__}, no range")
+    for word in SWEPT:
+        try:
+            kind(word)
+            continue                            # inside the range
+        except argparse.ArgumentTypeError:
+            pass
+        if isinstance(nargs, int):              # LENGTH WIDTH THICKNESS: the last one bad
+            if word == "-inf":
+                continue                        # argparse takes it for an option
+            given = [flag, *["1"] * (nargs - 1), word]
+        else:
+            given = [f"{flag}={word}"]
+        code = main([command, *given, "--out", str(tmp_path / "x")])
+        assert flag in one_line_error(capsys, code)
+        assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("command, spec", [("slab", "cases.slab.SlabSpec"),
+                                           ("wave1d", "cases.wave1d.Wave1DSpec")])
+def test_every_numeric_key_of_a_case_refuses_what_is_outside_its_range(tmp_path, capsys,
+                                                                       command, spec):
+    """The options made from a case's fields: a value outside the field's range gets one line
+    naming the field, exit 2, before anything is built."""
+    import importlib
+    from cli.commands._options import keyed_fields, option
+    from orchestrator.casefile import integer, number
+    module, name = spec.rsplit(".", 1)
+    cls = getattr(importlib.import_module(module), name)
+    model = ["--model", "coupled"] if command == "slab" else []
+    checked = 0
+    for f in keyed_fields(cls):
+        kind, check = f.metadata["kind"], f.metadata["check"]
+        if kind not in (number, integer) and "auto" not in str(f.default):
+            continue
+        for word in SWEPT:
+            value = float(word)
+            if kind is integer and math.isfinite(value) and value == int(value):
+                value = int(value)
+            if number(value)[1] is None and (kind is not integer or isinstance(value, int)) \
+                    and (check is None or check(value) is None):
+                continue                        # inside the range
+            code = main([command, *model, f"{option(f.name)}={word}", "--out",
+                         str(tmp_path / "x")])
+            assert f.name in one_line_error(capsys, code), (f.name, word)
+            assert not (tmp_path / "x").exists()
+            checked += 1
+    assert checked >= 4 * len(SWEPT)      # the loop saw the fields
 
 
 # --- refused or warned instead of accepted silently ----------------------------------------
@@ -521,6 +597,7 @@ def test_a_stopped_ensemble_stops_its_members_and_starts_no_more(tmp_path):
                            "size 0.1 m) and reaches x = -4.8 m, beyond the mesh's edge x = 0 m"),
     ("coupling.layers=3", "coupling.layers: at most 2 layers of 0.1 m fit"),
     ("time.steps=100000000000000", "time.steps = 100000000000000: must be in [1, 1e+09]"),
+    ("time.dt=1e-300", "time.dt = 1e-300 s: below 0.001 × the smaller critical step"),
 ])
 def test_impossible_keys_are_refused(tmp_path, capsys, setting, message):
     code = main(["run", str(small_case(tmp_path)), "--set", setting, "--out",

@@ -140,6 +140,74 @@ def test_a_stopped_mpi_run_says_so_in_one_line(tmp_path):
     assert err.strip().endswith("no checkpoint (the YADE scene is split over MPI ranks)")
 
 
+def _started(out, extra=()):
+    """A 2-rank full run in a session of its own (as a terminal's foreground job), once its
+    step 20 is logged."""
+    import time
+    cmd = [sys.executable, "-m", "cli", "slab", "--model", "full", "--scale", "small",
+           "--steps", "5000", "--check-every", "10", "--mpi", "2", "--quiet", "--out", str(out),
+           *extra]
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 300
+    while not ((out / "run.log").is_file() and "step 20," in (out / "run.log").read_text()):
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.2)
+    return proc
+
+
+def _left(out):
+    """The processes still running with `out` on their command line (mpiexec, its ranks)."""
+    found = subprocess.run(["pgrep", "-f", "--", f"--out {out}"], capture_output=True, text=True)
+    assert found.returncode in (0, 1), found.stderr        # 0: found, 1: none
+    return found.stdout.split()
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_an_mpi_run_with_the_one_process_line(tmp_path):
+    """Ctrl-C reaches the terminal's whole foreground group: the command, not mpiexec (in a
+    session of its own), which it tells to stop; rank 0 ends its step and says why; 130."""
+    import signal
+    out = tmp_path / "run"
+    proc = _started(out)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err
+    assert "Broken pipe" not in err and "Traceback" not in err
+    assert err.strip().splitlines()[-1].startswith("stopped: stopped at step ")
+    assert _left(out) == []
+
+
+@pytest.mark.slow
+def test_mpiexec_and_its_ranks_end_with_the_command_however_it_ends(tmp_path):
+    """The command killed outright (SIGKILL, as `timeout -s KILL` would): mpiexec is told
+    (PR_SET_PDEATHSIG) and ends its ranks."""
+    import signal
+    import time
+    out = tmp_path / "run"
+    proc = _started(out)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    deadline = time.monotonic() + 60
+    while _left(out) and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert _left(out) == []
+
+
+@pytest.mark.parametrize("extra, message", [
+    (("--mpi", "999"), "--mpi 999: 998 workers (every rank but rank 0, which drives) on"),
+    (("--mpi", "2", "--checkpoint-every", "100"), "--checkpoint-every acts only on a run in one "
+                                                  "process (an MPI run keeps no checkpoint"),
+    (("--mpi", "2", "--seeds", "1,2,3", "--jobs", "3"), "3 runs × --mpi 2: 3 workers"),
+])
+def test_more_ranks_than_the_machine_holds_are_refused_before_mpiexec(tmp_path, extra,
+                                                                      message, monkeypatch):
+    """Bounded by this process's cores (here made 2): nothing is started, no folder made."""
+    from cli.main import main
+    monkeypatch.setattr(os, "sched_getaffinity", lambda _pid: {0, 1})
+    assert main(["slab", "--model", "full", *extra, "--out", str(tmp_path / "x")]) == 2
+    assert not (tmp_path / "x").exists() and _left(tmp_path / "x") == []
+
+
 def test_a_model_built_for_more_ranks_than_the_process_has_is_refused():
     from cases.slab import SlabModel, SlabSpec
     with pytest.raises(ValueError, match=r"mpi = 3 runs on that many MPI ranks, this process "

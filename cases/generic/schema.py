@@ -5,22 +5,27 @@ import math
 
 import numpy as np
 
-from orchestrator.casefile import (CASE, FACES, OUTPUT, REQUIRED, UNSET, Key, at_least_one,
-                                   axes, boolean, choice, components, divisions, integer,
-                                   non_negative, number, poisson_range, positive, number_or_auto,
-                                   safety_range, step_count, string, strings, vector)
+from orchestrator.casefile import (CASE, DENSITY, FACES, MODULUS, OUTPUT, REQUIRED, SEED,
+                                   STRENGTH, UNSET, Key, axes, boolean, choice, components,
+                                   divisions, integer, non_negative, number, poisson_range,
+                                   positive, number_or_auto, safety_range, step_count, string, strings,
+                                   vector, within)
 from orchestrator.coupling.bridging import WEIGHTINGS
 
 MATERIAL = {
-    "young": Key(number, 31e9, positive), "poisson": Key(number, 0.2, poisson_range),
-    "density": Key(number, 2400.0, positive),
-    "compressive_strength": Key(number, 31e6, positive),
-    "tensile_strength": Key(number, 4.0e6, positive),
+    "young": Key(number, 31e9, MODULUS), "poisson": Key(number, 0.2, poisson_range),
+    "density": Key(number, 2400.0, DENSITY),
+    "compressive_strength": Key(number, 31e6, STRENGTH),
+    "tensile_strength": Key(number, 4.0e6, STRENGTH),
 }
-CPM = {name: Key(number, UNSET, positive) for name in
-       ("young", "poisson", "frictionAngle", "sigmaT", "epsCrackOnset", "relDuctility")}
+CPM = {"young": Key(number, UNSET, within(0, 1e13, "Pa")),
+       "poisson": Key(number, UNSET, within(0, 1)),            # the links' shear / normal stiffness
+       "frictionAngle": Key(number, UNSET, within(0, math.pi / 2, "rad")),
+       "sigmaT": Key(number, UNSET, STRENGTH),
+       "epsCrackOnset": Key(number, UNSET, within(0, 1)),
+       "relDuctility": Key(number, UNSET, within(0, 1e4))}
 PACKING = {"name": Key(string, UNSET), "lo": Key(vector, REQUIRED), "hi": Key(vector, REQUIRED),
-           "radius": Key(number, REQUIRED, positive), "seed": Key(integer, 1, non_negative),
+           "radius": Key(number, REQUIRED, within(0, 1, "m")), "seed": Key(integer, 1, SEED),
            "velocity": Key(vector, [0.0, 0.0, 0.0])}
 DIRICHLET = {"face": Key(choice(*FACES), REQUIRED), "components": Key(components, REQUIRED)}
 SENSOR = {"name": Key(string, REQUIRED), "point": Key(vector, UNSET),
@@ -35,14 +40,16 @@ GENERIC = {
            "n": Key(divisions, UNSET), "cell": Key(choice("hexahedron", "tetrahedron"), "hexahedron"),
            "dirichlet": [DIRICHLET]},
     "coupling": {"zone_lo": Key(vector, REQUIRED), "zone_hi": Key(vector, REQUIRED),
-                 "zone_axes": Key(axes, [0, 1]), "layers": Key(integer, 3, at_least_one),
-                 "element_size": Key(number, UNSET, positive),
+                 "zone_axes": Key(axes, [0, 1]),
+                 "layers": Key(integer, 3, within(1, 1000, low_open=False)),
+                 "element_size": Key(number, UNSET, within(0, 1e3, "m")),
                  "variant": Key(choice("full", "diagonal"), "diagonal"),
-                 "relaxation": Key(number_or_auto, "auto", positive),
+                 "relaxation": Key(number_or_auto, "auto", within(0, 1e6)),
                  "rotations": Key(boolean, True),
                  "weighting": Key(choice(*WEIGHTINGS), "consistent")},
-    "time": {"dt_safety": Key(number, 0.3, safety_range), "dt": Key(number, UNSET, positive),
-             "duration": Key(number, UNSET, positive),
+    "time": {"dt_safety": Key(number, 0.3, safety_range),
+             "dt": Key(number, UNSET, within(0, 1, "s")),      # and >= MIN_SAFETY × critical
+             "duration": Key(number, UNSET, positive),        # and <= MAX_STEPS steps
              "steps": Key(integer, UNSET, step_count)},
     "sensors": [SENSOR],
     "output": OUTPUT,

@@ -8,18 +8,18 @@ from cases.slab.model import MODELS
 from cases.slab.runs import run as run_model
 from cases.slab.reinforced import checked_layers
 from cases.slab.spec import SlabSpec
-from orchestrator.casefile import (CASE, REQUIRED, Key, choice, number, positive, spec_from_case,
-                                   spec_schema)
+from orchestrator.casefile import (CASE, DENSITY, MODULUS, REQUIRED, STRENGTH, Key, choice,
+                                   number, spec_from_case, spec_schema, within)
 
 SCHEMA = {"case": CASE, **spec_schema(SlabSpec)}
 # no default model, as for the `slab` command: full or coupled is the user's choice
 SCHEMA["slab"] = {"model": Key(choice(*MODELS), REQUIRED), **SCHEMA["slab"]}
-_LENGTH = Key(number, REQUIRED, positive)
+_LENGTH = Key(number, REQUIRED, within(0, 1, "m"))
 SCHEMA["reinforcement"] = [{
     "diameter": _LENGTH, "spacing": _LENGTH, "cover": _LENGTH,
     "direction": Key(choice(*DIRECTIONS), REQUIRED), "face": Key(choice(*FACES)),
-    **{k: Key(number, check=positive)
-       for k in ("young", "yield_strength", "density", "bond_strength")}}]
+    "young": Key(number, check=MODULUS), "yield_strength": Key(number, check=STRENGTH),
+    "density": Key(number, check=DENSITY), "bond_strength": Key(number, check=STRENGTH)}]
 
 
 def check(data, folder, problems):

@@ -4,9 +4,10 @@ SlabSpec's fields (orchestrator.casefile.spec_schema, cli.commands._options)."""
 import math
 from dataclasses import dataclass
 
-from orchestrator.casefile import (boolean, check_spec, choice, integer, non_negative, number,
-                                   poisson_range, positive, number_or_auto,
-                                   safety_range, spec_key as key, step_count)
+from orchestrator.casefile import (DENSITY, FRACTURE_ENERGY, MODULUS, SEED, STRENGTH, boolean,
+                                   check_spec, choice, integer, number, poisson_range,
+                                   number_or_auto, safety_range, spec_key as key, step_count,
+                                   within)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
 from orchestrator.run.autozone import (TripLevels, ahead_level, damage_level, omega_level,
@@ -18,17 +19,19 @@ from cases.slab.scales import (CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY,
 @dataclass
 class SlabSpec:
     scale: str = key("small", choice(*SCALES), help="sphere size: small | medium | paper")
-    seed: int = key(1, integer, non_negative, help="packing realisation (slab and impactor)")
-    radius: float = key(None, number, positive, help="sphere radius (m); default per scale")
-    de_zone: float = key(None, number, positive,
+    seed: int = key(1, integer, SEED, help="packing realisation (slab and impactor)")
+    radius: float = key(None, number, within(0, 0.1, "m"),
+                        help="sphere radius (m); default per scale")
+    de_zone: float = key(None, number, within(0, SLAB[0], "m"),
                          help="side of the DE zone (m), rounded to the FE grid; default per scale")
     full_width: bool = key(None, boolean, help="the DE zone spans the slab's whole width")
-    fe_ratio: float = key(3.0, number, positive, help="in-plane FE size / sphere diameter")
-    fe_ratio_thickness: float = key(1.5, number, positive,
+    fe_ratio: float = key(3.0, number, within(0, 20), help="in-plane FE size / sphere diameter")
+    fe_ratio_thickness: float = key(1.5, number, within(0, 20),
                                     help="FE size through the thickness / sphere diameter")
-    impactor_side: float = key(0.30, number, positive, help="side of the cubic impactor (m)")
-    impactor_speed: float = key(40.0, number, positive, help="impact speed (m/s)")
-    impactor_gap: float = key(0.002, number, non_negative,
+    impactor_side: float = key(0.30, number, within(0, SLAB[1], "m"),
+                               help="side of the cubic impactor (m)")
+    impactor_speed: float = key(40.0, number, within(0, 1000, "m/s"), help="impact speed (m/s)")
+    impactor_gap: float = key(0.002, number, within(0, 1, "m", low_open=False),
                               help="m the impactor falls before its first contact")
     elastic_outside: bool = key(False, boolean,
                                 help="full model: links outside the coupled model's DE zone "
@@ -39,10 +42,10 @@ class SlabSpec:
                          "(docs/auto-zone.md); 'box': that zone, fixed; 'auto': grown by the "
                          "same checks, each time run again from t = 0; default 'grow', 'box' "
                          "for what a grown zone cannot carry (bars, a graded band, zone cells)")
-    zone_start: float = key(None, number, positive, section="zone", name="start",
+    zone_start: float = key(None, number, within(0, SLAB[0], "m"), section="zone", name="start",
                             help="auto, grow: side (m) of a square start zone under the impact, "
                                  "rounded to the FE grid; default the box zone")
-    zone_limit: float = key(None, number, positive, section="zone", name="limit",
+    zone_limit: float = key(None, number, within(0, SLAB[0], "m"), section="zone", name="limit",
                             help="auto, grow: length (m) along x of the centred full-width strip "
                                  "the zone may fill; default the slab less the supports and "
                                  "the band")
@@ -61,17 +64,18 @@ class SlabSpec:
                                   "the band with damage >= this trips instead of its stress "
                                   "(0.9: 0.62-0.75 ft left in tension, docs/auto-zone.md); also "
                                   "the post-run check's level")
-    stress_every: int = key(TripLevels.stress_every, integer, positive, section="zone",
+    stress_every: int = key(TripLevels.stress_every, integer, step_count, section="zone",
                             help="auto, grow: steps between FE stress checks")
-    links_every: int = key(TripLevels.links_every, integer, positive, section="zone",
+    links_every: int = key(TripLevels.links_every, integer, step_count, section="zone",
                            help="auto, grow: steps between bridging link checks")
-    zone_margin: int = key(TripLevels.margin, integer, positive, section="zone", name="margin",
+    zone_margin: int = key(TripLevels.margin, integer, within(1, 100, low_open=False),
+                           section="zone", name="margin",
                            help="auto, grow: cells added around the flagged ones")
     zone_ahead: float = key(TripLevels.ahead, number, ahead_level, section="zone", name="ahead",
                             help="auto, grow: when an indicator trips, the cells past this × "
                                  "its level are flagged too (fewer, larger growths); 1: only "
                                  "those that tripped")
-    zone_cost: float = key(0.5, number, non_negative, section="zone", name="cost",
+    zone_cost: float = key(0.5, number, within(0, 1e3, low_open=False), section="zone", name="cost",
                            help="auto: the search stops when the spheres × steps it has run, "
                                 "plus one whole run of its last zone, reach this × the full "
                                 "model's; grow: when those it has run, plus the rest of the "
@@ -82,9 +86,9 @@ class SlabSpec:
                            help="grow: the links of converted cells take the FE's shear strain "
                                 "(affine) too, not only its normal strain: that adds 2-3 × the "
                                 "energy the cells had (docs/auto-zone.md)")
-    layers: int = key(None, integer, positive, section="coupling",
+    layers: int = key(None, integer, within(1, 20, low_open=False), section="coupling",
                       help="bridging layers; default per scale")
-    band_ratio: float = key(None, number, positive, section="coupling",
+    band_ratio: float = key(None, number, within(0, 20), section="coupling",
                             help="in-plane size of the bridging band's FE cells / sphere "
                                  "diameter: a graded FE mesh, its cells growing by at most "
                                  "1.2 per cell from the band to fe_ratio's size away from it "
@@ -96,7 +100,7 @@ class SlabSpec:
                          help="bridging weights: 'consistent' puts α, β inside the partners' "
                               "masses and stiffnesses (energy-conserving), 'nodal' is the "
                               "paper's (not conservative, docs/coupling.md)")
-    relaxation: object = key("auto", number_or_auto, positive, section="coupling",
+    relaxation: object = key("auto", number_or_auto, within(0, 1e6), section="coupling",
                              help="relaxation r, or 'auto': the rule derived from the 1D band "
                                   "(docs/wave1d.md; r = 20.9 at small scale, dt 0.3)")
     rotations: bool = key(True, boolean, section="coupling", help="couple sphere rotations")
@@ -105,7 +109,7 @@ class SlabSpec:
                                  "short pre-runs (cases/slab/timestep.py); without "
                                  "shear_release, 0.3 gains energy under a 40 m/s impact and "
                                  "even 0.15 overstates the damage (docs/performance.md)")
-    shear_release: float = key(1.4e-4, number, non_negative, section="time",
+    shear_release: float = key(1.4e-4, number, within(0, 1, "s", low_open=False), section="time",
                                help="period (s) at which links past ω = 0.9 lose their shear "
                                     "stiffness: the crack friction that feeds energy into a "
                                     "cracked slab in proportion to the step (0: never; "
@@ -113,34 +117,34 @@ class SlabSpec:
     steps: int = key(None, integer, step_count, section="time",
                      help="steps; default per scale and impact speed: the impact's measured "
                           "duration (cases/slab/scales.py)")
-    sample_every: int = key(5, integer, positive, section="output",
+    sample_every: int = key(5, integer, step_count, section="output",
                             help="steps between sensor samples")
-    check_every: int = key(50, integer, positive, section="output",
+    check_every: int = key(50, integer, step_count, section="output",
                            help="steps between energy and blow-up checks")
-    output_every: int = key(200, integer, positive, section="output", name="every",
+    output_every: int = key(200, integer, step_count, section="output", name="every",
                             help="steps between ParaView frames")
-    checkpoint_every: int = key(1000, integer, positive, section="output",
+    checkpoint_every: int = key(1000, integer, step_count, section="output",
                                 help="steps between checkpoints")
-    young: float = key(None, number, positive, section="material",
+    young: float = key(None, number, MODULUS, section="material",
                        help="FE modulus (Pa); default per scale (the DE slab's bending modulus)")
     poisson: float = key(None, number, poisson_range, section="material",
                          help="FE Poisson ratio; default the concrete's measured ν")
-    density: float = key(2400.0, number, positive, section="material", help="kg/m³")
+    density: float = key(2400.0, number, DENSITY, section="material", help="kg/m³")
     concrete: str = key("plain", choice(*CONCRETES), section="material",
                         help="the spheres' CPM set of the scale: 'plain' (fitted to E, fc) or "
                              "'gf' (also towards the fracture energy; small and medium, "
                              "docs/calibration.md)")
-    compressive_strength: float = key(None, number, positive, section="material",
+    compressive_strength: float = key(None, number, STRENGTH, section="material",
                                       help="fc (Pa) of the FE damage law and the post-run FE "
                                            "check; default the concrete's measured fc")
-    tensile_strength: float = key(None, number, positive, section="material",
+    tensile_strength: float = key(None, number, STRENGTH, section="material",
                                   help="ft (Pa) of the FE damage law and the post-run FE "
                                        "check; default the concrete's measured ft")
-    fracture_energy: float = key(None, number, positive, section="material",
+    fracture_energy: float = key(None, number, FRACTURE_ENERGY, section="material",
                                  help="Gf (J/m²) of the FE damage law; default the concrete's "
                                       "separation test")
     compressive_fracture_energy: float = key(
-        None, number, positive, section="material",
+        None, number, FRACTURE_ENERGY, section="material",
         help="Gc (J/m²) of the FE damage law's compression band; default fitted to the "
              "post-peak branch of the concrete's compression test on the slab's FE cells "
              "(docs/fe-damage.md)")
@@ -313,6 +317,9 @@ def _grown(s, m):
 NEEDS = {
     "elastic_outside": (lambda s, m: m == "full", "the full model"),
     "mpi": (lambda s, m: m == "full", "the full model"),
+    "checkpoint_every": (lambda s, m: not s.mpi, "a run in one process (an MPI run keeps no "
+                                                 "checkpoint: its YADE scene is split over the "
+                                                 "ranks)"),
     **{k: (_coupled, "the coupled model (the FE and the coupling)")
        for k in ("band_ratio", "variant", "weighting", "relaxation", "rotations", "young",
                  "poisson", "fe_material", "tensile_strength")},

@@ -19,10 +19,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from orchestrator.casefile import (choice, integer, integer_or_auto as layers_kind, non_negative,
-                                   number, positive, number_or_auto, safety_range,
-                                   spec_key as key)
-from orchestrator.coupling.bridging import WEIGHTINGS, check_weighting
+from orchestrator.casefile import (check_spec, choice, integer, integer_or_auto as layers_kind,
+                                   number, number_or_auto, safety_range, spec_key as key, within)
+from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
 from orchestrator.coupling.relaxation import MAX_LAYERS, auto_coupling, auto_relaxation, layers_for
 
@@ -40,48 +39,36 @@ MARGIN_ELEMENTS = 6            # clearance kept between waves and region edges, 
 class Wave1DSpec:
     variant: str = key("diagonal", choice(*VARIANTS), section="coupling",
                        help="multiplier solver")
-    relaxation: object = key("auto", number_or_auto, positive, section="coupling",
+    relaxation: object = key("auto", number_or_auto, within(1, 1e6, low_open=False), section="coupling",
                              help="relaxation r >= 1, or 'auto': the rule of docs/wave1d.md")
-    layers: object = key("auto", layers_kind, positive, section="coupling",
+    layers: object = key("auto", layers_kind, within(1, 50, low_open=False), section="coupling",
                          help="bridging FE layers n_b, or 'auto': the rule's narrowest band "
                               "from 3 that meets the goal (with relaxation 'auto', r alone "
                               "first; with a given r, at that r)")
-    ratio: int = key(5, integer, positive, section="wave1d",
-                     help="FE element length / sphere spacing")
-    element: float = key(0.05, number, positive, section="wave1d",
+    ratio: int = key(5, integer, within(2, 100, low_open=False), section="wave1d",
+                     help="FE element length / sphere spacing (>= 2: whole spheres per element, "
+                          "and room between the FE and DE cut-offs)")
+    element: float = key(0.05, number, within(0, 10, "m"), section="wave1d",
                          help="FE element length h (m); section h × h")
     dt_safety: float = key(0.8, number, safety_range, section="time",
                            help="time step / the smaller critical step")
     weighting: str = key("consistent", choice(*WEIGHTINGS), section="coupling",
                          help="bridging weights: 'consistent' or 'nodal' (the paper's)")
-    lf_amplitude: float = key(1e-6, number, non_negative, section="wave1d",
+    lf_amplitude: float = key(1e-6, number, within(0, 1e-3, "m", low_open=False),
+                              section="wave1d",
                               help="low-frequency pulse amplitude (m)")
-    hf_amplitude: float = key(2e-7, number, non_negative, section="wave1d",
+    hf_amplitude: float = key(2e-7, number, within(0, 1e-3, "m", low_open=False),
+                              section="wave1d",
                               help="high-frequency packet amplitude (m)")
     rule: str = None                 # set by "auto": why the rule took its r and n_b
 
     def __post_init__(self):
-        if self.variant not in ("full", "diagonal"):
-            raise ValueError(f"wave1d: variant must be 'full' or 'diagonal', got {self.variant!r}")
+        check_spec(self, "wave1d")
         auto_layers = self.layers == "auto"
         if auto_layers:
             self.layers = MIN_LAYERS
-        if int(self.layers) != self.layers or self.layers < 1:
-            raise ValueError(f"wave1d: layers must be an integer >= 1, got {self.layers!r}")
-        if int(self.ratio) != self.ratio or self.ratio < 2:
-            raise ValueError(f"wave1d: ratio must be an integer >= 2 (whole spheres per "
-                             f"element, and room between the FE and DE cut-offs), got {self.ratio!r}")
-        self.layers, self.ratio = int(self.layers), int(self.ratio)
-        if not self.element > 0:
-            raise ValueError(f"wave1d: element must be > 0, got {self.element!r}")
-        for name in ("lf_amplitude", "hf_amplitude"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"wave1d: {name} must be >= 0, got {getattr(self, name)!r}")
         if self.lf_amplitude + self.hf_amplitude == 0:
             raise ValueError("wave1d: lf_amplitude and hf_amplitude are both 0: no wave")
-        check_weighting("wave1d", self.weighting)
-        if not 0 < self.dt_safety <= 1:
-            raise ValueError(f"wave1d: dt_safety must be in (0, 1], got {self.dt_safety!r}")
         if auto_layers and self.relaxation == "auto":
             self.relaxation, self.layers, self.rule = auto_coupling(
                 self.ratio, self.layers, self.variant, self.dt_safety, self.weighting)
@@ -89,13 +76,7 @@ class Wave1DSpec:
             self.relaxation = auto_relaxation(self.ratio, self.layers, self.variant,
                                               self.dt_safety, self.weighting)
             self.rule = f"r with the most margin to the goal at n_b = {self.layers}"
-        try:
-            self.relaxation = float(self.relaxation)
-        except (TypeError, ValueError):
-            raise ValueError(f"wave1d: relaxation must be a number >= 1 or 'auto', "
-                             f"got {self.relaxation!r}") from None
-        if not self.relaxation >= 1:
-            raise ValueError(f"wave1d: relaxation must be >= 1, got {self.relaxation!r}")
+        self.relaxation = float(self.relaxation)
         if auto_layers and self.rule is None:
             nb, att, lf = layers_for(self.relaxation, self.ratio, self.variant, self.dt_safety,
                                      self.weighting, MIN_LAYERS)

@@ -1,6 +1,7 @@
 """Options several subcommands share, and the options made from a case description's fields
 (cases.slab.SlabSpec, cases.wave1d.Wave1DSpec: their defaults stay in the description)."""
 import argparse
+import math
 import tomllib
 from dataclasses import MISSING, fields
 
@@ -24,6 +25,27 @@ def count(text):
     if value is None or value < 1:
         raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
     return value
+
+
+def ranged(low, high, kind=float, low_open=True, high_open=False):
+    """An argparse type: a finite `kind` (float or int) in its physical range from `low` to
+    `high` (each end excluded when open), so that no NaN, inf or absurd value reaches YADE's
+    or PETSc's C++."""
+    text = (f"{'an integer' if kind is int else 'a finite number'} in "
+            f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}")
+
+    def parse(word):
+        try:
+            value = kind(word)
+        except ValueError:
+            value = None
+        if value is None or not math.isfinite(value) or not (
+                (low < value if low_open else low <= value) and
+                (value < high if high_open else value <= high)):
+            raise argparse.ArgumentTypeError(f"must be {text}, got {word!r}")
+        return value
+    parse.range = (low, high, low_open, high_open)
+    return parse
 
 
 def add_threads(p, default=None):

@@ -1,6 +1,6 @@
 """`batch`: many case files, or one case with a parameter table, N runs at a time
 (the Docker image's entrypoint), or a Slurm job array of them."""
-from cli.commands._options import add_out, count
+from cli.commands._options import add_out, count, ranged
 
 NAME = "batch"
 HELP = ("batch CASE.toml [CASE.toml ...] [--table PARAMS] -j N --out DIR: runs and a summary "
@@ -15,7 +15,7 @@ def configure(p):
     p.add_argument("--slurm", action="store_true",
                    help="write DIR/batch.sbatch, a Slurm job array of one task per run "
                         "(submit it with sbatch), instead of running")
-    p.add_argument("--task", type=int, metavar="K",
+    p.add_argument("--task", type=ranged(0, 10**7, int, False), metavar="K",
                    help="run only run K of the batch in DIR written by --slurm (what each "
                         "array task runs)")
     add_out(p, "folder for the runs and batch_summary.csv")

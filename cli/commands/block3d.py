@@ -1,24 +1,28 @@
 """`block3d`: the paper's 3D check, a coupled elastic block sheared slowly into a known field."""
-from cli.commands._options import add_out, add_weighting
+from cli.commands._options import add_out, add_weighting, ranged
 
 NAME = "block3d"
 HELP = ("3D check (paper §2): coupled YADE/FE block under a slow simple shear; error of the "
         "bridging spheres' displacements and rotations with and without rotation coupling")
 
+STEPS = ranged(1, 10**7, int, low_open=False)
 
 
 def configure(p):
-    p.add_argument("--gamma", type=float, default=1e-4, help="shear strain amplitude (default 1e-4)")
-    p.add_argument("--ramp-steps", type=int, default=600, help="steps of the smooth ramp (default 600)")
-    p.add_argument("--hold-steps", type=int, default=400,
+    p.add_argument("--gamma", type=ranged(0, 0.01), default=1e-4,
+                   help="shear strain amplitude (default 1e-4)")
+    p.add_argument("--ramp-steps", type=STEPS, default=600,
+                   help="steps of the smooth ramp (default 600)")
+    p.add_argument("--hold-steps", type=STEPS, default=400,
                    help="steps held at full load, over which the answer is averaged (default 400)")
-    p.add_argument("--layers", type=int, default=2, help="bridging layers (default 2)")
-    p.add_argument("--radius", type=float, default=0.003,
+    p.add_argument("--layers", type=ranged(1, 10, int, False), default=2,
+                   help="bridging layers (default 2)")
+    p.add_argument("--radius", type=ranged(0, 0.01), default=0.003,
                    help="sphere radius in m (default 0.003: the block is 20 radii wide)")
     p.add_argument("--packing", choices=("random", "cubic"), default="random",
                    help="spheres: a random dense packing (default) or a simple cubic lattice, "
                         "for which the affine field is exact")
-    p.add_argument("--diagonal-relaxation", type=float, default=35.0,
+    p.add_argument("--diagonal-relaxation", type=ranged(0, 1e6), default=35.0,
                    help="r of the diagonal variant's runs (default 35)")
     p.add_argument("--variants", nargs="+", choices=("full", "diagonal"),
                    default=["full", "diagonal"], help="coupled variants to run (default both)")

@@ -4,73 +4,107 @@ separation for the fracture energy; fit of the CPM micro-parameters to target E,
 calibration record (cases/slab/twin.py)."""
 from cases.slab import SCALES
 from cases.slab.scales import CONCRETES
-from cli.commands._options import add_out, add_threads
+from cli.commands._options import add_out, add_threads, ranged
+from orchestrator.coupling.assembly import MIN_SAFETY
 
 NAME = "calibrate"
 HELP = ("uniaxial tests of a CPM packing (E, ν, fc, ft, Gf); fit CPM micro-parameters to "
         "target --young, --fc, --gf (--poisson)")
 
 
+# the spheres' tests' options, their defaults (None: the help says), and those a mode ignores:
+# given there, they are refused (one line), never recorded as if used
+TESTS = {"young": 31e9, "fc": 31e6, "poisson": None, "density": 2400.0, "gf": None,
+         "no_gf": False, "radius": None, "size": (0.56, 0.56, 0.28), "measure_only": False,
+         "sigma_t": None, "cpm_young": None, "eps_crack_onset": None, "cpm_poisson": None,
+         "rel_ductility": None, "shear_contrib": None, "strain_rate": 0.05, "dt_safety": 0.8,
+         "shear_release": 0.0, "tol": 0.02, "gf_tol": 0.05, "max_iter": 6, "seed": 1}
+FIT_ONLY = ("young", "poisson", "tol", "gf_tol", "max_iter")      # not with --measure-only
+TWIN = {"gf": None, "no_bending": False, "concrete": "plain"}       # with --fe-twin
+
+
 def configure(p):
-    p.add_argument("--young", type=float, default=31e9, help="target E (Pa, default 31e9)")
-    p.add_argument("--fc", type=float, default=31e6,
-                   help="target compressive strength (Pa, default 31e6)")
-    p.add_argument("--poisson", type=float, default=None,
-                   help="target ν (default: keep CpmMat.poisson and report ν)")
-    p.add_argument("--density", type=float, default=2400.0, help="bulk density (kg/m³)")
-    p.add_argument("--gf", type=float, default=None,
-                   help="target fracture energy (J/m², default fib Model Code 2010: "
-                        "73 fc^0.18 with fc in MPa)")
-    p.add_argument("--no-gf", action="store_true",
-                   help="keep relDuctility: no separation test, ft from a tension test")
+    def add(name, help, **kw):
+        default = {**TESTS, **TWIN}[name]
+        shown = "" if default in (None, False) else f" (default {_shown(default)})"
+        p.add_argument("--" + name.replace("_", "-"), default=None, help=help + shown, **kw)
+    add("young", "target E (Pa)", type=ranged(1e6, 1e12))
+    add("fc", "target compressive strength (Pa)", type=ranged(1e5, 1e9))
+    add("poisson", "target ν (default: keep CpmMat.poisson and report ν)",
+        type=ranged(0, 0.5, high_open=True))
+    add("density", "bulk density (kg/m³)", type=ranged(100, 2e4, low_open=False))
+    add("gf", "target fracture energy (J/m², default fib Model Code 2010: 73 fc^0.18 with fc "
+              "in MPa); with --fe-twin, the FE's Gf where the record has none",
+        type=ranged(0, 1e6))
+    add("no_gf", "keep relDuctility: no separation test, ft from a tension test",
+        action="store_true")
     size = p.add_mutually_exclusive_group()
     size.add_argument("--scale", choices=tuple(SCALES), default="small",
                       help="the slab's sphere radius of this scale (default small)")
-    size.add_argument("--radius", type=float, help="sphere radius (m)")
-    p.add_argument("--size", type=float, nargs=3, default=(0.56, 0.56, 0.28),
-                   metavar=("LENGTH", "WIDTH", "THICKNESS"),
-                   help="specimen (m), loaded along its length (default 0.56 0.56 0.28: "
-                        "the slab's thickness)")
-    p.add_argument("--measure-only", action="store_true",
-                   help="only measure the given micro-parameters, no fit")
-    p.add_argument("--sigma-t", type=float, default=None, help="initial CpmMat.sigmaT (Pa)")
-    p.add_argument("--cpm-young", type=float, default=None, help="initial CpmMat.young (Pa)")
-    p.add_argument("--eps-crack-onset", type=float, default=None,
-                   help="initial CpmMat.epsCrackOnset")
-    p.add_argument("--cpm-poisson", type=float, default=None, help="initial CpmMat.poisson")
-    p.add_argument("--rel-ductility", type=float, default=None,
-                   help="initial CpmMat.relDuctility")
-    p.add_argument("--shear-contrib", type=float, default=None,
-                   help="CpmMat.equivStrainShearContrib ξ, kept by the fit (default 0: links "
-                        "never break in shear)")
-    p.add_argument("--strain-rate", type=float, default=0.05,
-                   help="compression strain rate (1/s, default 0.05; tension: 1/10 of it)")
-    p.add_argument("--dt-safety", type=float, default=0.8,
-                   help="time step, × YADE's critical P-wave step (default 0.8)")
-    p.add_argument("--shear-release", type=float, default=0.0,
-                   help="period (s) at which links past ω = 0.9 lose their shear stiffness, "
-                        "as in the slab (default 0: never); with a shorter step it closes the "
-                        "separation test's energy balance (docs/calibration.md)")
-    p.add_argument("--tol", type=float, default=0.02,
-                   help="relative tolerance on E and fc of the fit (default 0.02)")
-    p.add_argument("--gf-tol", type=float, default=0.05,
-                   help="relative tolerance on Gf of the fit (default 0.05)")
-    p.add_argument("--max-iter", type=int, default=6, help="fit iterations (default 6)")
-    p.add_argument("--seed", type=int, default=1, help="packing seed")
+    size.add_argument("--radius", type=ranged(0, 0.1), help="sphere radius (m)")
+    add("size", "specimen (m), loaded along its length (the slab's thickness)",
+        type=ranged(0, 10), nargs=3, metavar=("LENGTH", "WIDTH", "THICKNESS"))
+    add("measure_only", "only measure the given micro-parameters, no fit", action="store_true")
+    add("sigma_t", "initial CpmMat.sigmaT (Pa)", type=ranged(0, 1e9))
+    add("cpm_young", "initial CpmMat.young (Pa)", type=ranged(0, 1e13))
+    add("eps_crack_onset", "initial CpmMat.epsCrackOnset", type=ranged(0, 1, high_open=True))
+    add("cpm_poisson", "initial CpmMat.poisson", type=ranged(0, 1))
+    add("rel_ductility", "initial CpmMat.relDuctility", type=ranged(0, 1e4))
+    add("shear_contrib", "CpmMat.equivStrainShearContrib ξ, kept by the fit (default 0: links "
+                         "never break in shear)", type=ranged(0, 1, low_open=False))
+    add("strain_rate", "compression strain rate (1/s; tension: 1/10 of it)",
+        type=ranged(0, 100))
+    add("dt_safety", "time step, × YADE's critical P-wave step",
+        type=ranged(MIN_SAFETY, 1, low_open=False))
+    add("shear_release", "period (s) at which links past ω = 0.9 lose their shear stiffness, "
+                         "as in the slab (0: never); with a shorter step it closes the "
+                         "separation test's energy balance (docs/calibration.md)",
+        type=ranged(0, 1, low_open=False))
+    add("tol", "relative tolerance on E and fc of the fit", type=ranged(0, 1, high_open=True))
+    add("gf_tol", "relative tolerance on Gf of the fit", type=ranged(0, 1, high_open=True))
+    add("max_iter", "fit iterations", type=ranged(1, 100, int, False))
+    add("seed", "packing seed", type=ranged(0, 2**31 - 1, int, False))
     p.add_argument("--fe-twin", action="store_true",
                    help="run the slab's FE damage law of --scale on the specimens of the "
                         "scale's calibration record (its --concrete set; --gf gives the FE's Gf "
                         "where the record has none) and on a tension-compression cycle and a "
                         "bending strip to failure that the spheres run too, and compare the "
                         "curves (twin.json, twin.png)")
-    p.add_argument("--no-bending", action="store_true",
-                   help="with --fe-twin: leave out the bending strip (its spheres take ~4 min "
-                        "at small scale, 9 at medium, over an hour at paper scale)")
-    p.add_argument("--concrete", choices=CONCRETES, default="plain",
-                   help="with --fe-twin: the scale's CPM set whose record is compared "
-                        "(default plain)")
+    add("no_bending", "with --fe-twin: leave out the bending strip (its spheres take ~4 min at "
+                      "small scale, 9 at medium, over an hour at paper scale)",
+        action="store_true")
+    add("concrete", "with --fe-twin: the scale's CPM set whose record is compared",
+        choices=CONCRETES)
     add_threads(p)
     add_out(p, "results folder")
+
+
+def _shown(value):
+    return " ".join(map(_shown, value)) if isinstance(value, tuple) else f"{value:g}" if \
+        isinstance(value, float) else value
+
+
+def _by_mode(args):
+    """The options that act in args' mode, with their defaults filled in; one line (ValueError)
+    for one given that its mode ignores."""
+    given = {k for k in {**TESTS, **TWIN} if getattr(args, k) not in (None, False)}
+    if args.fe_twin:
+        ignored = sorted(given - set(TWIN), key=list(TESTS).index)
+        if ignored:
+            raise ValueError(f"--{ignored[0].replace('_', '-')} acts on the spheres' tests, "
+                             f"not with --fe-twin (which runs the scale's calibration record)")
+    else:
+        twin_only = sorted(given & {"no_bending", "concrete"})
+        if twin_only:
+            raise ValueError(f"--{twin_only[0].replace('_', '-')} acts only with --fe-twin")
+        if args.measure_only and given & set(FIT_ONLY):
+            name = next(k for k in FIT_ONLY if k in given)
+            raise ValueError(f"--{name.replace('_', '-')} acts on a fit, not with "
+                             f"--measure-only")
+    for name, default in {**TESTS, **TWIN}.items():
+        if getattr(args, name) is None:
+            setattr(args, name, default)
+    return args
 
 
 def run(args):
@@ -80,15 +114,10 @@ def run(args):
     from yade_side.fracture import mc2010_fracture_energy
     from yade_side.material import ConcreteParams
 
+    args = _by_mode(args)
     if args.fe_twin:
         return run_twin(args)
     # every input is checked before YADE is imported and the results folder made
-    if not 0 < args.tol < 1:
-        raise ValueError(f"--tol must be in (0, 1), got {args.tol!r}")
-    if args.max_iter < 1:
-        raise ValueError(f"--max-iter must be >= 1, got {args.max_iter!r}")
-    if not 0 < args.gf_tol < 1:
-        raise ValueError(f"--gf-tol must be in (0, 1), got {args.gf_tol!r}")
     if args.no_gf and args.gf is not None:
         raise ValueError(f"--gf {args.gf!r} and --no-gf exclude each other")
     radius = args.radius if args.radius is not None else SCALES[args.scale].radius
@@ -141,9 +170,6 @@ def run_twin(args):
     from cases.slab.spec import SlabSpec
     from common.files import write_json
     from orchestrator.run.folder import prepare_out
-    if args.radius is not None:
-        raise ValueError(f"--fe-twin compares with a scale's calibration record: give --scale, "
-                         f"not --radius {args.radius!r}")
     path = CALIBRATIONS / f"{args.scale}-{args.concrete}.json"
     if not path.is_file():
         raise ValueError(f"--fe-twin: scale {args.scale!r} has no calibration record for "

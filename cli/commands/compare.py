@@ -1,6 +1,6 @@
 """`compare`: coupled slab runs against full-YADE runs of the same slab: one of each, or
 ensembles over packing seeds (folders made by `slab --seeds`, or several run folders)."""
-from cli.commands._options import add_out
+from cli.commands._options import add_out, ranged
 
 NAME = "compare"
 HELP = ("compare FULL COUPLED: sensor histories, damage maps, speed-up; FULL and COUPLED may be "
@@ -15,7 +15,7 @@ def configure(p):
     p.add_argument("--verdict", action="store_true",
                    help="judge the coupled runs on the quantities of interest (needs 2 same-seed "
                         "pairs or 2 runs of each model; given anyway when they are there)")
-    p.add_argument("--margin", type=float, default=None, metavar="FRACTION",
+    p.add_argument("--margin", type=ranged(0, 1), default=None, metavar="FRACTION",
                    help="the equivalence margin of every judged statistic, a fraction of the "
                         "full mean (default: 0.10 on peaks, their times and histories)")
     add_out(p, "folder for comparison.json and plots")

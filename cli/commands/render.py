@@ -1,5 +1,5 @@
 """`render`: 3D pictures of a run's folder drawn by ParaView, offscreen (PNG)."""
-from cli.commands._options import add_out
+from cli.commands._options import add_out, ranged
 
 NAME = "render"
 HELP = ("render RUN_DIR [--times T ...] [--animate] [--out DIR]: ParaView pictures of a run, "
@@ -8,7 +8,7 @@ HELP = ("render RUN_DIR [--times T ...] [--animate] [--out DIR]: ParaView pictur
 
 def configure(p):
     p.add_argument("run_dir", metavar="RUN_DIR", help="a run's results folder")
-    p.add_argument("--times", type=float, nargs="+", metavar="T",
+    p.add_argument("--times", type=ranged(0, 1e3, low_open=False), nargs="+", metavar="T",
                    help="simulated times (s); each picture shows the nearest frame "
                         "(default: a third, two thirds and the end of the run)")
     p.add_argument("--animate", action="store_true",

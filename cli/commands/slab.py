@@ -191,8 +191,11 @@ def _ensemble(model, args, spec):
     from orchestrator.run.folder import prepare_out
     from orchestrator.run.restart import Stopped
     from yade_side import cores
-    top = prepare_out(args.out, args.force, _inputs(args))
     jobs = args.jobs or max(1, min(len(args.seeds), cores() // max(1, spec.mpi - 1)))
+    if spec.mpi:
+        from cli.mpi import check_machine
+        check_machine(spec.mpi, min(jobs, len(args.seeds)))
+    top = prepare_out(args.out, args.force, _inputs(args))
     quiet = args.quiet or jobs > 1          # one progress bar per terminal
     running, lock, stopped = set(), threading.Lock(), []
 

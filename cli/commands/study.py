@@ -4,7 +4,8 @@ says pays, and the table, plots and docs page written from the run folders. Runs
 finished with the same description are reused, so the study resumes where it stopped."""
 import argparse
 
-from cli.commands._options import add_threads, list_of
+from cli.commands._options import add_threads, list_of, ranged
+from orchestrator.casefile import MAX_STEPS
 
 NAME = "study"
 HELP = ("where coupling pays: the coupled slab's error against the full scatter and its "
@@ -42,7 +43,8 @@ def configure(p):
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     # the machinery at a small scale and a few steps, for its tests
     p.add_argument("--scale", default="medium", help=argparse.SUPPRESS)
-    p.add_argument("--steps", type=int, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--steps", type=ranged(1, MAX_STEPS, int, False), default=None,
+                   help=argparse.SUPPRESS)
     p.add_argument("--seeds", type=list_of(int, "integers"), default=None, help=argparse.SUPPRESS)
 
 

@@ -1,5 +1,6 @@
 """`wave1d-study`: the sweep of the paper's Figs. 4–7 and the check of the automatic r."""
-from cli.commands._options import add_out, add_weighting
+from cli.commands._options import add_out, add_weighting, ranged
+from orchestrator.coupling.assembly import MIN_SAFETY
 
 NAME = "wave1d-study"
 HELP = ("1D spurious-reflection sweep: 4 variants x n_b 1-6 x r 1-100 at ratio 5, and the "
@@ -10,7 +11,7 @@ def configure(p):
     add_out(p, "results folder")
     p.add_argument("--quick", action="store_true",
                    help="a coarse sweep (n_b 1, 3; 5 values of r; ratios 2, 5, 8) for a check")
-    p.add_argument("--dt-safety", type=float, default=0.8,
+    p.add_argument("--dt-safety", type=ranged(MIN_SAFETY, 1, low_open=False), default=0.8,
                    help="time step / the smaller critical step (default 0.8; the slab uses 0.3)")
     add_weighting(p, "nodal")
     p.add_argument("--quiet", action="store_true", help="no progress bar")

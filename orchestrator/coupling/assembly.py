@@ -10,9 +10,15 @@ def bridging_spheres(bridging, centres, tol=0.0):
     return np.flatnonzero(bridging.contains(np.asarray(centres, float), tol))
 
 
+# A step below this × the critical one buys nothing and costs steps without end (the slab's
+# default run would take 10⁸ of them); the relaxation rule reads the factor to 6 digits.
+MIN_SAFETY = 1e-3
+
+
 def time_step(de_critical, fe_critical, safety=None, dt=None, source="dt"):
     """The common time step: `dt` if given (set by `source`), else safety × the smaller
-    critical step; both partners must be stable alone. ValueError, one line per problem."""
+    critical step; both partners must be stable alone, and a given dt at least MIN_SAFETY ×
+    the smaller critical step. ValueError, one line per problem."""
     problems = []
     for name, value in (("DE", de_critical), ("FE", fe_critical)):
         if not value > 0:
@@ -27,6 +33,10 @@ def time_step(de_critical, fe_critical, safety=None, dt=None, source="dt"):
         if dt > value:
             problems.append(f"{source} = {dt:.4g} s: above the {name} critical step "
                             f"{value:.4g} s (the run would blow up)")
+    least = MIN_SAFETY * min(de_critical, fe_critical)
+    if not problems and dt < least:
+        problems.append(f"{source} = {dt:.4g} s: below {MIN_SAFETY:g} × the smaller critical "
+                        f"step, {least:.4g} s (a run of steps without end)")
     if problems:
         raise ValueError("\n".join(problems))
     return dt
