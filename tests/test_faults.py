@@ -190,6 +190,21 @@ def test_an_option_that_cannot_act_on_the_run_is_refused(tmp_path, capsys, args,
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.parametrize("args, message", [
+    (["calibrate", "--no-bending"], "--no-bending acts only with --fe-twin"),
+    (["calibrate", "--fe-twin", "--strain-rate", "0.1"],
+     "--strain-rate acts on the spheres' tests, not with --fe-twin"),
+    (["calibrate", "--measure-only", "--tol", "0.1"], "--tol acts on a fit, not with "
+                                                      "--measure-only"),
+    (["block3d", "--variants", "full", "--diagonal-relaxation", "10"],
+     "--diagonal-relaxation acts only on the diagonal variant's runs"),
+])
+def test_an_option_its_mode_ignores_is_refused(tmp_path, capsys, args, message):
+    code = main([*args, "--out", str(tmp_path / "x")])
+    assert message in one_line_error(capsys, code)
+    assert not (tmp_path / "x").exists()
+
+
 def test_a_case_key_that_cannot_act_on_the_run_is_refused(tmp_path, capsys):
     case = tmp_path / "slab.toml"
     case.write_text('[case]\nkind = "slab"\n[slab]\nmodel = "full"\n'

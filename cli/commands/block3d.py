@@ -22,7 +22,7 @@ def configure(p):
     p.add_argument("--packing", choices=("random", "cubic"), default="random",
                    help="spheres: a random dense packing (default) or a simple cubic lattice, "
                         "for which the affine field is exact")
-    p.add_argument("--diagonal-relaxation", type=ranged(0, 1e6), default=35.0,
+    p.add_argument("--diagonal-relaxation", type=ranged(0, 1e6), default=None,
                    help="r of the diagonal variant's runs (default 35)")
     p.add_argument("--variants", nargs="+", choices=("full", "diagonal"),
                    default=["full", "diagonal"], help="coupled variants to run (default both)")
@@ -39,7 +39,11 @@ def run(args):
     from common.files import write_json, write_text
     from orchestrator.run.folder import prepare_out
     check = ShearCheck(gamma=args.gamma, ramp_steps=args.ramp_steps, hold_steps=args.hold_steps)
-    cases = [(v, r) for v, r in (("full", 1.0), ("diagonal", args.diagonal_relaxation))
+    if args.diagonal_relaxation is not None and "diagonal" not in args.variants:
+        raise ValueError("--diagonal-relaxation acts only on the diagonal variant's runs: give "
+                         "--variants diagonal (or both)")
+    r = 35.0 if args.diagonal_relaxation is None else args.diagonal_relaxation
+    cases = [(v, r) for v, r in (("full", 1.0), ("diagonal", r))
              if v in args.variants]
     options = dict(layers=args.layers, weighting=args.weighting, radius=args.radius,
                    packing=args.packing)
