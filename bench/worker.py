@@ -236,9 +236,9 @@ def _time_variant(m, variant, task):
     from orchestrator.coupling.multipliers import FullSolver
     spec = m.spec
     t0 = perf_counter()
-    coupling = couple(m.fe, m.bridging, m.bridge, m.dt, replace(CouplingSpec(
+    coupling, _, _ = couple(m.fe, m.bridging, m.bridge, m.dt, replace(CouplingSpec(
         spec.variant, spec.relaxation, spec.rotations, spec.weighting), variant=variant),
-        spec.relaxation)
+        m.critical)
     out = {"coupling_setup_s": perf_counter() - t0}
     if variant == "full":
         c = coupling

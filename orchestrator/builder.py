@@ -24,7 +24,8 @@ import numpy as np
 from orchestrator.coupling.assembly import bridging_spheres, make_coupling, time_step
 from orchestrator.coupling.bridging import check_weighting
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.coupling.relaxation import (MAX_LAYERS, Prediction, auto_layers,
+from orchestrator.coupling.relaxation import (MAX_LAYERS, RELAXATION_RULES, Prediction,
+                                              auto_layers,
                                               auto_relaxation, margin)
 from orchestrator.stepper import CoupledStepper
 
@@ -40,7 +41,7 @@ class BuildError(ValueError):
 @dataclass
 class CouplingSpec:
     variant: str = "diagonal"       # multiplier solver: full | diagonal
-    relaxation: object = "auto"     # r, or "auto": orchestrator.coupling.relaxation
+    relaxation: object = "auto"     # r, "auto" (orchestrator.coupling.relaxation) or "rho"
     rotations: bool = True          # couple sphere rotations too
     weighting: str = "consistent"   # or "nodal", the paper's (not conservative: docs/coupling.md)
 
@@ -48,9 +49,10 @@ class CouplingSpec:
         if self.variant not in VARIANTS:
             raise ValueError(f"coupling variant must be one of {VARIANTS}, got {self.variant!r}")
         check_weighting("coupling", self.weighting)
-        if self.relaxation != "auto" and not (
+        if self.relaxation not in RELAXATION_RULES and not (
                 isinstance(self.relaxation, (int, float)) and self.relaxation > 0):
-            raise ValueError(f"relaxation must be > 0 or 'auto', got {self.relaxation!r}")
+            raise ValueError(f"relaxation must be > 0, 'auto' or 'rho', got "
+                             f"{self.relaxation!r}")
 
     @property
     def consistent(self):
@@ -140,8 +142,7 @@ def assemble(d, grown_from=None):
     stepper, relaxation, notes, inside = None, None, [], False
     if coupled:
         bridge = BodySet(every[index])        # masses read once weighted
-        relaxation, notes = _relaxation(d, bridge, dt, critical)
-        coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation)
+        coupling, relaxation, notes = couple(fe, d.bridging, bridge, dt, d.coupling, critical)
         stepper = CoupledStepper(O.step, bridge, fe, coupling)
         inside = d.scene.attach(stepper.couple)
     return Parts(O, ids, fe, d.bridging, beta, index[index < len(ids)], bar_ids, stepper, dt,
@@ -200,8 +201,8 @@ def assemble_grown(d, old):
                               young[pairs], poisson[pairs], 0.5 * beta[pairs].sum(axis=1))
     spheres = BodySet.joined(old.spheres, added, ref_pos)     # masses read once weighted
     bridge = spheres.subset(index, ref_pos[index])
-    relaxation, notes = _relaxation(d, bridge, dt, critical)
-    coupling = couple(fe, d.bridging, bridge, dt, d.coupling, relaxation, exact_ratio=False)
+    coupling, relaxation, notes = couple(fe, d.bridging, bridge, dt, d.coupling, critical,
+                                         exact_ratio=False)
     stepper = CoupledStepper(p.O.step, bridge, fe, coupling)
     inside = d.scene.attach(stepper.couple)
     return Parts(p.O, ids, fe, d.bridging, beta, index, np.empty(0, int), stepper, dt, critical,
@@ -374,13 +375,20 @@ class Model:
             self.fe.cell_centres)
 
 
-def couple(fe, bridging, bridge, dt, spec, relaxation, exact_ratio=True):
-    """The coupling of the spheres `bridge` to `fe` as CouplingSpec `spec` says, with r =
-    `relaxation`: α and β weigh the multipliers for the nodal weighting; the consistent one
-    has them inside the partners already (α = β = 1 here). exact_ratio: see
-    orchestrator.coupling.correction.Coupling."""
-    return make_coupling(fe, bridging, bridge, dt, spec.variant, relaxation, spec.rotations,
-                         nodal_weights=not spec.consistent, exact_ratio=exact_ratio)
+def couple(fe, bridging, bridge, dt, spec, critical, exact_ratio=True):
+    """(coupling, r, notes): the coupling of the spheres `bridge` to `fe` as CouplingSpec
+    `spec` says (its r as given, by the 1D rule, or ρ: _relaxation): α and β weigh the
+    multipliers for the nodal weighting; the consistent one has them inside the partners
+    already (α = β = 1 here). exact_ratio: see orchestrator.coupling.correction.Coupling."""
+    relaxation, notes = _relaxation(spec, bridging, bridge, dt, critical)
+    coupling = make_coupling(fe, bridging, bridge, dt, spec.variant, relaxation, spec.rotations,
+                             nodal_weights=not spec.consistent, exact_ratio=exact_ratio)
+    if relaxation is None:
+        notes.append(f"relaxation rho: r = ρ = {coupling.relaxation:.4g}, the largest "
+                     f"eigenvalue of the lumped against the full multiplier matrix: the least "
+                     f"relaxation at which the {spec.variant} correction exceeds the full one in "
+                     f"no constraint mode (docs/coupling.md)")
+    return coupling, coupling.relaxation, notes
 
 
 def _coupled_spheres(d, fe, ref_pos, problems):
@@ -439,15 +447,16 @@ def _mode_on(old, fe):
     return mode.reshape(-1, 3)[at].ravel()
 
 
-def _relaxation(d, bridge, dt, critical):
-    """r of the coupling, and a note of how 'auto' chose it: the 1D band's prediction at the
-    case's n_b (which its geometry fixes: the spheres must fill the band), and where that falls
-    short of the 1D goal, the n_b that would reach it."""
-    spec = d.coupling
+def _relaxation(spec, bridging, bridge, dt, critical):
+    """r of the coupling (None: ρ, which the coupling finds), and a note of how 'auto' chose
+    it: the 1D band's prediction at the case's n_b (which its geometry fixes: the spheres must
+    fill the band), and where that falls short of the 1D goal, the n_b that would reach it."""
+    if spec.relaxation == "rho":
+        return None, []
     if spec.relaxation != "auto":
         return float(spec.relaxation), []
-    layers = d.bridging.layers
-    ratio = d.bridging.width / layers / (2 * bridge.radius.mean())
+    layers = bridging.layers
+    ratio = bridging.width / layers / (2 * bridge.radius.mean())
     safety = dt / min(v for v in critical.values() if v is not None)
     r = float(auto_relaxation(ratio, layers, spec.variant, safety, spec.weighting))
     attenuation, lf = Prediction(ratio, layers, spec.variant, safety, spec.weighting)(r)

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from orchestrator.coupling.assembly import MIN_SAFETY
+from orchestrator.coupling.relaxation import RELAXATION_RULES
 
 UNSET = object()          # no default: the key is left out (the case module's default applies)
 REQUIRED = object()
@@ -80,6 +81,12 @@ def strings(v):
 def number_or_auto(v):
     return ("auto", None) if v == "auto" else (
         number(v) if number(v)[1] is None else (None, 'a number or "auto"'))
+
+
+def relaxation_kind(v):
+    """r: a number, or the rule that gives it (orchestrator.coupling.relaxation)."""
+    return (v, None) if v in RELAXATION_RULES else (
+        number(v) if number(v)[1] is None else (None, 'a number, "auto" or "rho"'))
 
 
 def integer_or_auto(v):

@@ -80,7 +80,7 @@ every = "often"
     (("steps = 10", "steps = 10\nduration = 1e-3"), "time: give either time.duration (s) or time.steps, not both"),
     (("[de]", "[de]\nscript = 'nope.py'"), "de: give either de.script"),
     (("[coupling]", "[coupling]\nvariant = 'half'"), "coupling.variant = 'half': expected one of 'full', 'diagonal'"),
-    (("[coupling]", "[coupling]\nrelaxation = 'big'"), "coupling.relaxation = 'big': expected a number or \"auto\""),
+    (("[coupling]", "[coupling]\nrelaxation = 'big'"), "coupling.relaxation = 'big': expected a number, \"auto\" or \"rho\""),
 ])
 def test_single_problems(tmp_path, change, message):
     with pytest.raises(CaseError, match=re.escape(message)):
@@ -133,7 +133,7 @@ def test_the_slab_case_file_is_the_slab_commands_default():
     from cases.slab import SlabSpec
     from cases.slab.casefile import spec as slab_spec
     spec = slab_spec(load(ROOT / "cases" / "slab.toml"))
-    assert spec == SlabSpec(scale="small", variant="diagonal", relaxation="auto", rotations=True,
+    assert spec == SlabSpec(scale="small", variant="diagonal", relaxation="rho", rotations=True,
                             output_every=200)
 
 

@@ -207,3 +207,39 @@ def test_lumping_bound_is_gershgorins_and_spares_arpack_where_it_shows_r_stable(
     assert lazy(0.55 * rho).lumping_ratio == pytest.approx(rho, rel=1e-12)
     with pytest.raises(ValueError, match=r"unstable: .* r < ρ/2"):
         lazy(0.45 * rho)
+
+
+@pytest.mark.parametrize("rotations", [False, True])
+def test_r_rho_is_the_least_relaxation_at_which_no_mode_is_over_corrected(rotations):
+    """relaxation None: r = ρ, found even where the bound would spare ARPACK; then the
+    corrections (1/r) S̄⁻¹ S of every constraint mode are at most 1, the largest exactly 1.
+    The full solver's ρ is 1: r = 1, the constraints to round-off."""
+    args, rng = synthetic()
+    for exact in (True, False):
+        c = Coupling(**args, variant="diagonal", rotations=rotations, relaxation=None,
+                     exact_ratio=exact)
+        assert c.relaxation == c.lumping_ratio
+    S = multiplier_matrix(c.G, c.de_inv_mass, c.fe_inv_mass, c.dt).toarray()
+    d = c.solver.diagonal
+    modes = np.linalg.eigvalsh(S / np.sqrt(np.outer(d, d))) / c.relaxation
+    assert modes.max() == pytest.approx(1.0, rel=1e-6) and modes.min() > 0
+    full = Coupling(**args, variant="full", rotations=rotations, relaxation=None)
+    assert full.relaxation == 1.0
+    d0, w0, u0 = predicted_state(args, rng)
+    cor = full.correct(d0, w0, u0)
+    assert np.abs(cor.q - cor.Gu).max() <= 1e3 * EPS * np.abs(cor.q).max()
+
+
+@pytest.mark.parametrize("r", [1.0, 2.0, 47.5])
+def test_a_relaxed_coupling_lags_by_r_minus_one_steps_of_drift(r):
+    """The mechanism of the relaxed coupling's compliance: spheres that drift from a held FE
+    field by δ a step keep a gap that tends to (r − 1) δ, since each step removes 1/r of it:
+    an interface spring of stiffness M / ((r − 1) Δt²) per sphere, none at r = 1."""
+    args, rng = synthetic()
+    args = dict(args, fe_fixed=np.ones_like(args["fe_fixed"]))
+    c = Coupling(**args, variant="full", rotations=False, relaxation=r)
+    n = len(args["de_mass"])
+    drift, q, u = rng.normal(size=(n, 3)), np.zeros((n, 3)), np.zeros(args["fe_mass"].size)
+    for _ in range(int(40 * r)):
+        q = c.correct(q + drift, np.zeros((n, 3)), u).q.reshape(-1, 3)
+    assert np.allclose(q, (r - 1) * drift, rtol=1e-9 * r, atol=1e-9 * r * np.abs(drift).max())

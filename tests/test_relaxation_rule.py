@@ -93,15 +93,16 @@ def test_rule_meets_the_goal_on_the_grid(ratio, dt_safety):
 
 
 def test_the_slab_band_table_is_the_rule_applied_to_the_slab_defaults():
-    """Each scale's default band misses the 1D goal (their r is the rule's best at that n_b),
-    and the rule's wider band meets it."""
+    """Each scale's default band misses the 1D goal, at r = 1 (near the default r = ρ) and at
+    the rule's best r for that n_b ('auto'), and the rule's wider band meets it."""
     from cases.slab import SlabSpec
     from cases.slab.band import band_table
     from orchestrator.coupling.relaxation import Prediction, margin
-    for scale, ratio, nb, r, att, lf, rule_nb, rule_r in band_table():
+    for scale, ratio, nb, att1, r, att, lf, rule_nb, rule_r in band_table():
         s = SlabSpec(scale=scale)
-        assert (nb, r) == (s.layers, s.relaxation)
-        assert margin(att, lf) < 1 and rule_nb > nb
+        assert (nb, r) == (s.layers, SlabSpec(scale=scale, relaxation="auto").relaxation)
+        assert att1 == Prediction(ratio, nb, s.variant, s.dt_safety, s.weighting)(1.0)[0]
+        assert att1 < att and margin(att, lf) < 1 and rule_nb > nb
         assert margin(*Prediction(ratio, rule_nb, s.variant, s.dt_safety, s.weighting)(rule_r)) > 1
 
 

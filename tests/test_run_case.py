@@ -265,7 +265,7 @@ def test_the_slab_case_file_runs_the_slab(tmp_path):
                  "--set", "output.every=15", "--out", str(out), "--quiet"]) == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["model"] == "coupled" and s["steps"] == 30
-    assert s["spec"]["relaxation"] == s["coupling"]["relaxation"] == SlabSpec().relaxation
-    assert "the 1D band's r" in s["spec"]["relaxation_rule"]
+    assert s["spec"]["relaxation"] == SlabSpec().relaxation == "rho"
+    assert s["coupling"]["relaxation"] == s["coupling"]["lumping_ratio"]
     for name in ("case.toml", "run.log", "spheres.pvd", "fe.xdmf", "sensors.png", "damage.png"):
         assert (out / name).is_file(), name

@@ -23,7 +23,7 @@ def test_deviation_is_the_largest_energy_gap_to_the_half_step():
 
 
 def test_the_largest_passing_rung_is_chosen_and_each_pre_run_made_once():
-    spec = SlabSpec(dt_safety="auto")
+    spec = SlabSpec(dt_safety="auto", relaxation="auto")
     assert spec.steps is None and spec.relaxation == "auto"     # both wait for the step
     calls, lines = [], []
     chosen = choose(spec, "full", lambda s, m, safety: history(s, m, safety, calls), lines.append)
@@ -36,7 +36,7 @@ def test_the_largest_passing_rung_is_chosen_and_each_pre_run_made_once():
     # the chosen spec is a whole one: the table's duration at 0.4, r from the rule at 0.4
     # ⌈4950 × 10.5 / 7 × 0.15 / 0.4⌉: the table's steps over its 7 ms, at 40 m/s's 10.5 ms
     assert chosen.steps == SlabSpec(dt_safety=0.4).steps == 2785
-    assert chosen.relaxation == SlabSpec(dt_safety=0.4).relaxation
+    assert chosen.relaxation == SlabSpec(dt_safety=0.4, relaxation="auto").relaxation
 
 
 def test_no_passing_rung_takes_the_last_one():

@@ -219,17 +219,17 @@ def test_a_fixed_zone_of_cells_is_that_zone(tmp_path):
     import json
     from cases.slab import SlabSpec
     from cases.slab.zone import model_grid
-    from cli.commands.slab import _zone_cells
+    from cli.commands.slab import _zone_run
     cells = [[6, 5], [6, 6], [7, 5], [7, 6]]
     (tmp_path / "summary.json").write_text(json.dumps(
         {"zone_outcome": "clean", "zone_final": {"cells": cells}}))
-    spec = SlabSpec(zone_cells=_zone_cells(tmp_path))
+    spec = SlabSpec(zone_cells=_zone_run(tmp_path)["zone_final"]["cells"])
     grid = model_grid(spec)
     assert np.argwhere(grid.cells).tolist() == cells and grid.cells.sum() == 4
     (tmp_path / "summary.json").write_text(json.dumps({"zone_outcome": "limit"}))
     with pytest.raises(ValueError, match=r"^--zone-from .*: not a zone 'auto' or 'grow' run "
                                          r"that ended clean \(zone_outcome 'limit'\)$"):
-        _zone_cells(tmp_path)
+        _zone_run(tmp_path)
 
 
 def test_history_and_normal_blocks_read_and_write_what_yades_python_view_reads():

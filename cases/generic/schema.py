@@ -8,8 +8,8 @@ import numpy as np
 from orchestrator.casefile import (CASE, DENSITY, FACES, MODULUS, OUTPUT, REQUIRED, SEED,
                                    STRENGTH, UNSET, Key, axes, boolean, choice, components,
                                    divisions, integer, non_negative, number, poisson_range,
-                                   positive, number_or_auto, safety_range, step_count, string, strings,
-                                   vector, within)
+                                   positive, relaxation_kind, safety_range, step_count, string,
+                                   strings, vector, within)
 from orchestrator.coupling.bridging import WEIGHTINGS
 
 MATERIAL = {
@@ -44,7 +44,7 @@ GENERIC = {
                  "layers": Key(integer, 3, within(1, 1000, low_open=False)),
                  "element_size": Key(number, UNSET, within(0, 1e3, "m")),
                  "variant": Key(choice("full", "diagonal"), "diagonal"),
-                 "relaxation": Key(number_or_auto, "auto", within(0, 1e6)),
+                 "relaxation": Key(relaxation_kind, "auto", within(0, 1e6)),
                  "rotations": Key(boolean, True),
                  "weighting": Key(choice(*WEIGHTINGS), "consistent")},
     "time": {"dt_safety": Key(number, 0.3, safety_range),

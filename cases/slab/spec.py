@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 from orchestrator.casefile import (DENSITY, FRACTURE_ENERGY, MODULUS, SEED, STRENGTH, boolean,
                                    check_spec, choice, integer, number, poisson_range,
-                                   number_or_auto, safety_range, spec_key as key, step_count,
-                                   within)
+                                   number_or_auto, relaxation_kind, safety_range,
+                                   spec_key as key, step_count, within)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
 from orchestrator.run.autozone import (TripLevels, ahead_level, damage_level, omega_level,
@@ -100,9 +100,13 @@ class SlabSpec:
                          help="bridging weights: 'consistent' puts α, β inside the partners' "
                               "masses and stiffnesses (energy-conserving), 'nodal' is the "
                               "paper's (not conservative, docs/coupling.md)")
-    relaxation: object = key("auto", number_or_auto, within(0, 1e6), section="coupling",
-                             help="relaxation r, or 'auto': the rule derived from the 1D band "
-                                  "(docs/wave1d.md; r = 20.9 at small scale, dt 0.3)")
+    relaxation: object = key("rho", relaxation_kind, within(0, 1e6), section="coupling",
+                             help="relaxation r; 'rho': r = ρ, the model's lumping ratio, the "
+                                  "least relaxation at which the diagonal correction exceeds "
+                                  "the full one in no constraint mode (1.1-1.3 on the slabs; "
+                                  "docs/slab.md, 'The coupled slab as stiff as the full one'); "
+                                  "'auto': the 1D band's rule against spurious reflections "
+                                  "(docs/wave1d.md; r = 47.5 at small scale, one layer)")
     rotations: bool = key(True, boolean, section="coupling", help="couple sphere rotations")
     dt_safety: object = key(0.3, number_or_auto, safety_range, section="time",
                             help="× the smaller critical step, or 'auto': the run picks it by "

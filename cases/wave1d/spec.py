@@ -39,7 +39,8 @@ MARGIN_ELEMENTS = 6            # clearance kept between waves and region edges, 
 class Wave1DSpec:
     variant: str = key("diagonal", choice(*VARIANTS), section="coupling",
                        help="multiplier solver")
-    relaxation: object = key("auto", number_or_auto, within(1, 1e6, low_open=False), section="coupling",
+    relaxation: object = key("auto", number_or_auto, within(1, 1e6, low_open=False),
+                             section="coupling",
                              help="relaxation r >= 1, or 'auto': the rule of docs/wave1d.md")
     layers: object = key("auto", layers_kind, within(1, 50, low_open=False), section="coupling",
                          help="bridging FE layers n_b, or 'auto': the rule's narrowest band "

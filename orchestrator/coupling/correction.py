@@ -49,10 +49,10 @@ class Coupling:
 
     k, h: (3n, ndof) sparse operators of docs/method.md (h may be None when rotations are off);
     de_mass, de_inertia, beta: (n,); fe_mass, fe_alpha: (ndof,) lumped mass and α per dof;
-    fe_fixed: (ndof,) mask of Dirichlet dofs; dt: the common time step. The diagonal solver's
-    stability is checked on ρ (lumping_ratio, ARPACK); with exact_ratio False, on its bound
-    first (lumping_bound) and ρ is found only where the bound does not show r stable
-    (lumping_ratio None: not computed).
+    fe_fixed: (ndof,) mask of Dirichlet dofs; dt: the common time step; relaxation: r, or
+    None for r = ρ. The diagonal solver's stability is checked on ρ (lumping_ratio, ARPACK);
+    with exact_ratio False, on its bound first (lumping_bound) and ρ is found only where the
+    bound does not show r stable (lumping_ratio None: not computed).
     """
 
     def __init__(self, k, h, de_mass, de_inertia, beta, fe_mass, fe_alpha, fe_fixed, dt,
@@ -60,7 +60,7 @@ class Coupling:
                  exact_ratio=True):
         if variant not in VARIANTS:
             raise ValueError(f"coupling variant must be one of {VARIANTS}, got {variant!r}")
-        if not relaxation > 0:
+        if relaxation is not None and not relaxation > 0:
             raise ValueError(f"relaxation r must be > 0, got {relaxation!r}")
         if not dt > 0:
             raise ValueError(f"time step must be > 0, got {dt!r}")
@@ -75,7 +75,7 @@ class Coupling:
         self.n = n
         self.dt = float(dt)
         self.variant = variant
-        self.relaxation = float(relaxation)
+        self.relaxation = None if relaxation is None else float(relaxation)
         self.rotations = bool(rotations)
 
         G = sp.vstack([k, h]).tocsr() if rotations else sp.csr_matrix(k)
@@ -107,8 +107,13 @@ class Coupling:
         if variant != "full":
             args = self.G, self.de_inv_mass, self.fe_inv_mass, self.dt, self.solver.diagonal
             self.lumping_bound = lumping_bound(*args)
-            bounded = not exact_ratio and self.relaxation >= 0.5 * self.lumping_bound
+            bounded = (not exact_ratio and self.relaxation is not None
+                       and self.relaxation >= 0.5 * self.lumping_bound)
             self.lumping_ratio = None if bounded else lumping_ratio(*args)
+        if self.relaxation is None:
+            # r = ρ: the least relaxation at which the lumped correction exceeds the full one
+            # in no constraint mode (the full solver's ρ is 1: r = 1, the constraints exactly)
+            self.relaxation = float(self.lumping_ratio)
         if self.lumping_ratio is not None and self.relaxation < 0.5 * self.lumping_ratio:
             raise ValueError(
                 f"relaxation r = {relaxation!r} makes the {variant} coupling unstable: its "

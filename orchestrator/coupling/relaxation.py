@@ -39,6 +39,9 @@ import math
 
 import numpy as np
 
+# r given by a rule: "auto", the 1D band's (auto_relaxation); "rho", the lumping ratio ρ of the
+# model's own multiplier matrix (orchestrator.coupling.correction.Coupling)
+RELAXATION_RULES = ("auto", "rho")
 GOAL_ATTENUATION = 0.99        # fraction of the reflected energy removed
 GOAL_LF_CHANGE = 0.01          # |relative change of the transmitted LF energy|
 WEIGHT_FLOOR = 0.01            # α, β ≥ this (the bridging weights' floor)
