@@ -172,8 +172,13 @@ def test_the_yardstick_finds_a_coupled_ensemble_like_the_full_one_equivalent(tmp
     assert crack["difference"] == pytest.approx(0.01, abs=1e-12)
     assert r["cracking_map_correlation"] == pytest.approx(1.0)   # both maps 75:25 × a_k
     assert (tmp_path / "cmp" / "cracking_maps.png").stat().st_size > 0
+    # the same-seed bias: each pair's peak 1.01 × the full one's
+    assert peak["pair_bias"] == pytest.approx({str(s): 0.01 for s in FULL}, abs=1e-12)
     out = capsys.readouterr().out
     assert out.strip().splitlines()[-2] == r["headline"]
+    assert out.strip().splitlines()[-3].startswith(
+        "same-seed bias of the peaks (coupled / full − 1: mean [pairs' range]): impactor_z "
+        "+1.0 % [+1.0, +1.0]")
     assert (tmp_path / "cmp" / "quantities.png").stat().st_size > 0
     assert (tmp_path / "cmp" / "profiles.png").stat().st_size > 0
     assert 'id="yardstick"' in (tmp_path / "cmp" / "report.html").read_text()

@@ -83,9 +83,31 @@ def judge(full, coupled, margin=None, totals=None):
             s: (equivalence.history(h["full"], h["coupled"], m[s]) if s == "history" else
                 equivalence.scalar(figures[s]("full"), figures[s]("coupled"), m[s]))
             for s in statistics}
+        if "peak" in statistics:
+            out["qoi"][name]["peak"]["pair_bias"] = _pair_bias(
+                figures["peak"]("full"), figures["peak"]("coupled"))
     for name, (f, c) in (totals or {}).items():
         out["qoi"][name] = {"total": equivalence.scalar(f, c, m["peak"])}
     return out
+
+
+def _pair_bias(full, coupled):
+    """{seed: coupled / full − 1} of the same-seed pairs' peaks."""
+    return {str(s): coupled[s] / full[s] - 1 for s in sorted(full.keys() & coupled.keys())}
+
+
+def bias_line(judgement):
+    """The same-seed bias of every judged peak in one line: the pairs' mean and their range,
+    or None without pairs."""
+    parts = []
+    for name, stats in judgement["qoi"].items():
+        pairs = stats.get("peak", {}).get("pair_bias")
+        if pairs:
+            v = list(pairs.values())
+            parts.append(f"{name} {100 * np.mean(v):+.1f} % [{100 * min(v):+.1f}, "
+                         f"{100 * max(v):+.1f}]")
+    return ("same-seed bias of the peaks (coupled / full − 1: mean [pairs' range]): "
+            + "; ".join(parts)) if parts else None
 
 
 def _within(t, run):

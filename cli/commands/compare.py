@@ -61,6 +61,11 @@ def run(args):
                 for s, e in ends.items()))
     for line in r["warnings"]:
         print(f"WARNING: {line}")
+    if "judgement" in r:
+        from cases.slab.judge import bias_line
+        line = bias_line(r["judgement"])
+        if line:
+            print(line)
     if "headline" in r:
         print(r["headline"])
     print(f"results in {out}; the page: {out / 'report.html'}")
