@@ -232,7 +232,7 @@ def test_a_case_files_layers_reach_the_slab(tmp_path):
      "reinforcement[0].cover = 0.005 m is below the bar radius 0.006 m"),
     ("spacing = 0.15\ncover = 0.3", "reinforcement[0].cover = 0.3 m puts the bars outside the "
                                     "concrete: it is 0.28 m thick"),
-    ("spacing = 0.0\ncover = 0.04", "reinforcement[0].spacing = 0.0: must be > 0"),
+    ("spacing = 0.0\ncover = 0.04", "reinforcement[0].spacing = 0.0: must be in (0, 1] m"),
     ("spacing = 0.15\ncover = 0.04\nface = \"side\"", "reinforcement[0].face = 'side': expected "
                                                       "one of 'bottom', 'top'"),
     ("cover = 0.04", "reinforcement[0].spacing: missing (required)"),

@@ -30,7 +30,7 @@ def test_a_twin_that_is_the_spheres_curve_scores_zero_and_the_exact_work():
 
 @pytest.mark.parametrize("args, says", [
     (["--scale", "paper", "--concrete", "gf"], "no calibration record"),
-    (["--radius", "0.02"], "give --scale"),
+    (["--radius", "0.02"], "--radius acts on the spheres' tests, not with --fe-twin"),
 ])
 def test_a_twin_without_a_record_is_refused_in_one_line(tmp_path, args, says):
     run = subprocess.run([sys.executable, "-m", "cli", "calibrate", "--fe-twin", *args,

@@ -22,7 +22,7 @@ class SlabSpec:
     seed: int = key(1, integer, SEED, help="packing realisation (slab and impactor)")
     radius: float = key(None, number, within(0, 0.1, "m"),
                         help="sphere radius (m); default per scale")
-    de_zone: float = key(None, number, within(0, SLAB[0], "m"),
+    de_zone: float = key(None, number, within(0, 100, "m"),
                          help="side of the DE zone (m), rounded to the FE grid; default per scale")
     full_width: bool = key(None, boolean, help="the DE zone spans the slab's whole width")
     fe_ratio: float = key(3.0, number, within(0, 20), help="in-plane FE size / sphere diameter")
@@ -42,10 +42,10 @@ class SlabSpec:
                          "(docs/auto-zone.md); 'box': that zone, fixed; 'auto': grown by the "
                          "same checks, each time run again from t = 0; default 'grow', 'box' "
                          "for what a grown zone cannot carry (bars, a graded band, zone cells)")
-    zone_start: float = key(None, number, within(0, SLAB[0], "m"), section="zone", name="start",
+    zone_start: float = key(None, number, within(0, 100, "m"), section="zone", name="start",
                             help="auto, grow: side (m) of a square start zone under the impact, "
                                  "rounded to the FE grid; default the box zone")
-    zone_limit: float = key(None, number, within(0, SLAB[0], "m"), section="zone", name="limit",
+    zone_limit: float = key(None, number, within(0, 100, "m"), section="zone", name="limit",
                             help="auto, grow: length (m) along x of the centred full-width strip "
                                  "the zone may fill; default the slab less the supports and "
                                  "the band")

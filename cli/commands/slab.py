@@ -45,8 +45,8 @@ def run(args):
                               zone_cells=zone_run and zone_run["zone_final"]["cells"])
         if zone_run:
             _check_zone_fits(args.zone_from, zone_run, spec)
-        _refuse_inert(args, spec, model)
         slab.model.check_ranks(spec, model)     # before mpiexec starts
+        _refuse_inert(args, spec, model)
         folder.check_out(args.out, args.force, _inputs(args))   # refuse before building, not after
     else:
         raise ValueError("give --model full|coupled and --out DIR for a new run, or --resume DIR")
