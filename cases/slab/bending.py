@@ -7,7 +7,9 @@ mid-span, links kept undamaged (CpmPhys.neverDamage), Cundall damping until the 
 deflection settles. The same strip in FE on the scale's grid (same supports, the same point
 forces through the coupling operator k) gives the deflection of a 31 GPa continuum; the FE is
 linear, so E_eff = 31 GPa × w_FE / w_DE is the FE modulus that bends like the spheres
-(cases/slab/scales.py SCALES, docs/slab.md).
+(cases/slab/scales.py SCALES, docs/slab.md). With `--plate`, the whole slab is loaded on the
+impactor's 0.3 m square patch and E_eff is read at each bottom patch of the quantities of
+interest (x = 0.75, 1.25, 1.75 m): the modulus the slab itself shows, free sides and all.
 
 The same strip is also loaded to failure, in spheres and in the FE damage law
 (`bending_to_failure_de`, `bending_to_failure_fe`: the FE twin, cases/slab/twin.py): the patch
@@ -20,22 +22,58 @@ import json
 import numpy as np
 
 from cases import slab
+from cases.slab.quantities import CENTRE, patch_points
+
+CENTRE_X = float(CENTRE.split("_x")[1])
 
 STRIP = 0.3          # m, strip width (y)
-PATCH = 0.3          # m, loaded patch at mid-span (x)
+PATCH = 0.3          # m, loaded patch at mid-span (x; and y on the plate: the impactor's side)
 REFERENCE_E = 31e9   # Pa, FE modulus of the reference solve
+PLATE_GAUGES = (0.75, 1.25, 1.75)      # m, x of the bottom patches read on the plate
 
 
 def de_deflection(spec, load, tol=2e-4, chunk=500, max_chunks=60):
     """Mid-span, mid-thickness mean z deflection of the DE strip and its sphere count."""
-    from yade_side import import_yade
     from yade_side.bulk import BodySet
+    packs = slab.make_packings(spec)
+    c, r = _strip(packs.slab_centres, packs.slab_radii)
+    ids = _loaded(spec, packs, c, r, _top(c, r), load)
+    return settled_deflection(BodySet(ids[_gauge(c)]), tol, chunk, max_chunks), len(ids)
+
+
+def plate_deflections(spec, load, tol=2e-4, chunk=500, max_chunks=80):
+    """The whole slab under the impactor's patch (a 0.3 m square of top spheres at the
+    centre), quasi-statically: the mean z deflection of each bottom patch of the quantities
+    of interest at PLATE_GAUGES, in spheres and in FE (REFERENCE_E, the scale's grid, the same
+    supports and point forces), and the sphere count."""
+    from yade_side.bulk import BodySet
+    packs = slab.make_packings(spec)
+    c, r = packs.slab_centres, packs.slab_radii
+    centre = 0.5 * np.array(slab.SLAB[:2])
+    top = (np.abs(c[:, :2] - centre) < 0.5 * PATCH).all(axis=1) & (c[:, 2] > slab.SLAB[2] - 2 * r)
+    patches = patch_points(c, spec.radius)
+    gauges = [patches[x] for x in PLATE_GAUGES]
+    fe = _fe_box(spec, 0.0, slab.SLAB[1])
+    w_fe = [static_point_deflection(fe, c[top], load, c[g]) for g in gauges]
+    ids = _loaded(spec, packs, c, r, top, load)
+    sets = [BodySet(ids[g]) for g in gauges]          # their displacements from here
+    settled_deflection(sets[PLATE_GAUGES.index(CENTRE_X)], tol, chunk, max_chunks)
+    w_de = []
+    for s in sets:
+        s.read()
+        w_de.append(float(s.displacement()[:, 2].mean()))
+    return w_de, w_fe, len(ids)
+
+
+def _loaded(spec, packs, c, r, top, load):
+    """The scene of the spheres c, r of the scale's concrete, links that never damage,
+    Cundall damping, held in z within 2 R of the supported faces, the spheres `top` pushed
+    down by `load` (N) in all; their ids."""
+    from yade_side import import_yade
     from yade_side.material import cpm_material
     from yade_side.packing import add_spheres
     from yade_side.scene import block_dofs, cpm_engines, create_cohesive_links, reset_scene
     O = import_yade().Omega()
-    packs = slab.make_packings(spec)
-    c, r = _strip(packs.slab_centres, packs.slab_radii)
     reset_scene()
     ids = add_spheres(c, r, cpm_material(slab.concrete(spec), packs.slab_fraction))
     _, newton = cpm_engines(dt_safety=0.8)
@@ -44,10 +82,9 @@ def de_deflection(spec, load, tol=2e-4, chunk=500, max_chunks=60):
         i.phys.neverDamage = True
     newton.damping = 0.5
     block_dofs(ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)], "z")
-    top = _top(c, r)
     for i in ids[top]:
         O.forces.setPermF(int(i), (0, 0, -load / top.sum()))
-    return settled_deflection(BodySet(ids[_gauge(c)]), tol, chunk, max_chunks), len(ids)
+    return ids
 
 
 def settled_deflection(gauge, tol=2e-4, chunk=500, max_chunks=60):
@@ -63,22 +100,28 @@ def settled_deflection(gauge, tol=2e-4, chunk=500, max_chunks=60):
         if last is not None and abs(w - last) < tol * abs(w):
             return w
         last = w
-    raise RuntimeError(f"DE strip deflection did not settle within {max_chunks * chunk} steps")
+    raise RuntimeError(f"DE deflection did not settle within {max_chunks * chunk} steps")
 
 
 def fe_deflection(spec, load):
     """The same strip, loads and gauge in FE (REFERENCE_E) on the scale's grid, solved statically."""
-    from fenicsx_side.mesh import box_mesh
-    from fenicsx_side.model import ElasticModel, face
-    grid = slab.slab_grid(spec)
     y0 = 0.5 * (slab.SLAB[1] - STRIP)
-    n = [grid.n[0], max(1, round(STRIP / grid.h)), grid.n[2]]
-    fe = ElasticModel(box_mesh((0, y0, 0), (slab.SLAB[0], y0 + STRIP, slab.SLAB[2]), n),
-                      REFERENCE_E, spec.poisson, spec.density,
-                      [(face(0, 0.0), (2,)), (face(0, slab.SLAB[0]), (2,))])
+    fe = _fe_box(spec, y0, y0 + STRIP)
     packs = slab.make_packings(spec)
     c, r = _strip(packs.slab_centres, packs.slab_radii)
     return static_point_deflection(fe, c[_top(c, r)], load, c[_gauge(c)])
+
+
+def _fe_box(spec, y0, y1):
+    """The elastic FE slab (REFERENCE_E) between y0 and y1 on the scale's grid, held in z on
+    its end faces."""
+    from fenicsx_side.mesh import box_mesh
+    from fenicsx_side.model import ElasticModel, face
+    grid = slab.slab_grid(spec)
+    n = [grid.n[0], max(1, round((y1 - y0) / grid.h)), grid.n[2]]
+    return ElasticModel(box_mesh((0, y0, 0), (slab.SLAB[0], y1, slab.SLAB[2]), n),
+                        REFERENCE_E, spec.poisson, spec.density,
+                        [(face(0, 0.0), (2,)), (face(0, slab.SLAB[0]), (2,))])
 
 
 def static_point_deflection(fe, points, load, gauges):
@@ -230,6 +273,9 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scale", choices=tuple(slab.SCALES), default="small")
     p.add_argument("--load", type=float, default=2e4, help="total force P (N), elastic range")
+    p.add_argument("--plate", action="store_true",
+                   help="the whole slab under the impactor's 0.3 m patch instead of the strip: "
+                        "E_eff at each bottom patch of the quantities of interest")
     p.add_argument("--higher-order", action="store_true",
                    help="only the share of the FE strip's bending energy in its cells' "
                         "higher-order stiffness, and what every cell at D = 1 leaves (FE damage "
@@ -245,6 +291,13 @@ def main(argv=None):
                           "left_at_full_damage": left}))
         return
     spec = slab.SlabSpec(scale=a.scale)
+    if a.plate:
+        w_de, w_fe, spheres = plate_deflections(spec, a.load)
+        print(json.dumps({"scale": a.scale, "radius": spec.radius, "spheres": spheres,
+                          "load_N": a.load, "x_m": PLATE_GAUGES, "deflection_de_m": w_de,
+                          "deflection_fe_31GPa_m": w_fe,
+                          "E_eff_Pa": [REFERENCE_E * f / d for f, d in zip(w_fe, w_de)]}))
+        return
     w_fe = fe_deflection(spec, a.load)
     w_de, spheres = de_deflection(spec, a.load)
     print(json.dumps({"scale": a.scale, "radius": spec.radius, "spheres": spheres, "load_N": a.load,
