@@ -88,7 +88,7 @@ render:
 	pictures are in results/slab-small/10ms/compare/report.html"; fi
 
 test: setup setup-browser
-	$(PY) -m pytest -q -n 2 tests
+	$(PY) -m pytest -q -n 2 --durations=15 tests
 
 test-slow: setup
 	$(PY) -m pytest -q -m slow tests
