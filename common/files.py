@@ -20,6 +20,7 @@ MARKER = ".yade-fenicsx-results"
 _recorded = set()       # (marker, entry) pairs this process has written: each once
 _TEMPORARY = re.compile(r"^\.(.+)\.[a-z0-9_]{8}(\.[^.]*)?$")   # atomic's: .NAME.XXXXXXXX.SUFFIX
 
+
 def file_mode():
     """0666 less the process's umask (read without changing it for good)."""
     mask = os.umask(0o022)

@@ -1,6 +1,6 @@
 """The slab's bridging band against the 1D rule (docs/wave1d.md): per scale, its discretisation
 ratio and default n_b; the attenuation of a spurious reflection the rule predicts at r = 1
-(the default r = ρ, 1.1-1.3 on the slabs, is close to it) and at the rule's own r for that
+(the default r = ρ, 1.1-2.6 on the slabs measured, is near it) and at the rule's own r for that
 band ('auto'), with its LF change; and the n_b the rule would need for its goal.
 `python3 -m cases.slab.band` prints the table."""
 

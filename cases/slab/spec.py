@@ -103,7 +103,7 @@ class SlabSpec:
     relaxation: object = key("rho", relaxation_kind, within(0, 1e6), section="coupling",
                              help="relaxation r; 'rho': r = ρ, the model's lumping ratio, the "
                                   "least relaxation at which the diagonal correction exceeds "
-                                  "the full one in no constraint mode (1.1-1.3 on the slabs; "
+                                  "the full one in no constraint mode (1.1-2.6 on the slabs; "
                                   "docs/slab.md, 'The coupled slab as stiff as the full one'); "
                                   "'auto': the 1D band's rule against spurious reflections "
                                   "(docs/wave1d.md; r = 47.5 at small scale, one layer)")
