@@ -25,8 +25,7 @@ from orchestrator.coupling.assembly import bridging_spheres, make_coupling, time
 from orchestrator.coupling.bridging import check_weighting
 from orchestrator.coupling.correction import VARIANTS
 from orchestrator.coupling.relaxation import (MAX_LAYERS, RELAXATION_RULES, Prediction,
-                                              auto_layers,
-                                              auto_relaxation, margin)
+                                              auto_layers, auto_relaxation, margin)
 from orchestrator.stepper import CoupledStepper
 
 
@@ -387,7 +386,8 @@ def couple(fe, bridging, bridge, dt, spec, critical, exact_ratio=True):
         notes.append(f"relaxation rho: r = ρ = {coupling.relaxation:.4g}, the largest "
                      f"eigenvalue of the lumped against the full multiplier matrix: the least "
                      f"relaxation at which the {spec.variant} correction exceeds the full one in "
-                     f"no constraint mode (docs/coupling.md)")
+                     f"no constraint mode (docs/slab.md, 'The coupled slab as stiff as the "
+                     f"full one')")
     return coupling, coupling.relaxation, notes
 
 
