@@ -386,8 +386,7 @@ def couple(fe, bridging, bridge, dt, spec, critical, exact_ratio=True):
         notes.append(f"relaxation rho: r = ρ = {coupling.relaxation:.4g}, the largest "
                      f"eigenvalue of the lumped against the full multiplier matrix: the least "
                      f"relaxation at which the {spec.variant} correction exceeds the full one in "
-                     f"no constraint mode (docs/slab.md, 'The coupled slab as stiff as the "
-                     f"full one')")
+                     f"no constraint mode (docs/slab-bias.md)")
     return coupling, coupling.relaxation, notes
 
 

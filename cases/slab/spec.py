@@ -104,7 +104,7 @@ class SlabSpec:
                              help="relaxation r; 'rho': r = ρ, the model's lumping ratio, the "
                                   "least relaxation at which the diagonal correction exceeds "
                                   "the full one in no constraint mode (1.1-2.6 on the slabs; "
-                                  "docs/slab.md, 'The coupled slab as stiff as the full one'); "
+                                  "docs/slab-bias.md); "
                                   "'auto': the 1D band's rule against spurious reflections "
                                   "(docs/wave1d.md; r = 47.5 at small scale, one layer)")
     rotations: bool = key(True, boolean, section="coupling", help="couple sphere rotations")
