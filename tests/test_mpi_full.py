@@ -104,6 +104,7 @@ def test_a_slurm_array_of_mpi_runs_asks_for_their_ranks(tmp_path):
     assert "#SBATCH --ntasks=3\n" in (tmp_path / "b" / "batch.sbatch").read_text()
 
 
+@pytest.mark.slow
 def test_an_ensemble_runs_each_member_on_its_own_ranks(tmp_path):
     """Each member starts its own mpiexec, from an ensemble process that started MPI itself
     and (as under pytest-xdist) inherited the MPI state of a parent that had: neither may reach
@@ -120,6 +121,7 @@ def test_an_ensemble_runs_each_member_on_its_own_ranks(tmp_path):
         assert s["spec"]["mpi"] == 2 and s["spec"]["seed"] == seed and s["steps"] == 20
 
 
+@pytest.mark.slow
 def test_a_stopped_mpi_run_says_so_in_one_line(tmp_path):
     """SIGTERM to the command reaches rank 0 (the workers ignore it), which ends its step and
     says why there is nothing to resume; exit code 143 as for a one-process run."""
