@@ -17,6 +17,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 MARKER = ".yade-fenicsx-results"
+HEADER = ("results folder written by yade-fenicsx-coupling; `--force` may replace what the "
+          "lines below list, and nothing else\n")       # earlier versions listed nothing
 _recorded = set()       # (marker, entry) pairs this process has written: each once
 _TEMPORARY = re.compile(r"^\.(.+)\.[a-z0-9_]{8}(\.[^.]*)?$")   # atomic's: .NAME.XXXXXXXX.SUFFIX
 
@@ -52,8 +54,7 @@ def mark(folder):
     marker = Path(folder).absolute() / MARKER
     _recorded.difference_update({e for e in _recorded if e[0] == marker})   # a folder made anew
     with atomic(marker) as tmp:
-        tmp.write_text("results folder written by yade-fenicsx-coupling; `--force` may "
-                       "replace what the lines below list, and nothing else\n")
+        tmp.write_text(HEADER)
 
 
 def record(path):
@@ -69,6 +70,12 @@ def record(path):
                     f.write(entry + "\n")
                 _recorded.add((marker, entry))
             return
+
+
+def lists_its_files(folder):
+    """The marker of results folder `folder` lists what the project wrote (an earlier
+    version's did not)."""
+    return (Path(folder) / MARKER).read_text().startswith(HEADER)
 
 
 def unrecorded(folder):

@@ -135,10 +135,11 @@ def test_force_replaces_only_what_the_project_wrote(tmp_path):
     shutil.rmtree(member / "analysis")
     prepare_out(run, force=True)
     assert [p.name for p in run.iterdir()] == [MARKER]
-    # a marker that lists nothing (a folder of an earlier version): nothing is the project's
+    # the marker of an earlier version, which listed nothing: nothing is known to be ours
     (run / "summary.json").write_text("{}")
     (run / MARKER).write_text("results folder written by yade-fenicsx-coupling\n")
-    with pytest.raises(ResultsExist, match=r"holds 1 file\(s\) .* \(summary.json\)"):
+    with pytest.raises(ResultsExist, match=r"written by an earlier version, which did not list "
+                                           r"its files: --force cannot tell them from yours"):
         prepare_out(run, force=True)
 
 

@@ -11,7 +11,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from common.files import MARKER, mark, unrecorded
+from common.files import MARKER, lists_its_files, mark, unrecorded
 
 FAILED = "FAILED"
 
@@ -52,6 +52,10 @@ def check_out(path, force=False, inputs=()):
                 raise ResultsExist(f"--out {path} holds {item}, an input of this run: --force "
                                    f"would delete it; choose another --out")
         foreign = unrecorded(out)
+        if foreign and not lists_its_files(out):
+            raise ResultsExist(f"results folder {path} was written by an earlier version, which "
+                               f"did not list its files: --force cannot tell them from yours; "
+                               f"delete it yourself or choose another --out")
         if foreign:
             shown = ", ".join(foreign[:5]) + (f" and {len(foreign) - 5} more" if len(foreign) > 5
                                               else "")
