@@ -61,6 +61,7 @@ def on_ranks(ranks, args):
 
 
 def _mpiexec(launcher, ranks, args):
+    import shutil
     import signal
     import subprocess
     import sys
@@ -69,10 +70,13 @@ def _mpiexec(launcher, ranks, args):
                OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     # mpiexec in a session of its own: Ctrl-C in a terminal reaches this process only, not
     # mpiexec as well (which, signalled twice, kills the ranks before rank 0 can say why);
-    # and it is told to end when this process dies, however it dies
-    proc = subprocess.Popen([launcher, "--oversubscribe", "-n", str(ranks), sys.executable,
-                             "-m", "cli", *args.argv], env=env, start_new_session=True,
-                            preexec_fn=_end_with_parent)
+    # and told to end when this process dies, however it dies (util-linux's setpriv sets
+    # Linux's parent-death signal: no Python runs between fork and exec)
+    setpriv = shutil.which("setpriv")
+    ends = [setpriv, "--pdeathsig", "TERM"] if setpriv else []
+    proc = subprocess.Popen([*ends, launcher, "--oversubscribe", "-n", str(ranks),
+                             sys.executable, "-m", "cli", *args.argv], env=env,
+                            start_new_session=True)
     # a stop asked of this process goes to the run as SIGTERM (mpiexec passes it on to every
     # rank: rank 0 ends its step and says why, the workers ignore it), and its exit code says
     # so as a one-process run's would
@@ -88,13 +92,6 @@ def _mpiexec(launcher, ranks, args):
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
-
-
-def _end_with_parent():
-    """In the child before exec: SIGTERM when the parent dies (Linux's PR_SET_PDEATHSIG)."""
-    import ctypes
-    import signal
-    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)     # 1: PR_SET_PDEATHSIG
 
 
 # what Open MPI's MPI_Init sets in a process's environment: a child that inherits it joins
