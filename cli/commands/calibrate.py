@@ -87,7 +87,8 @@ def _shown(value):
 def _by_mode(args):
     """The options that act in args' mode, with their defaults filled in; one line (ValueError)
     for one given that its mode ignores."""
-    given = {k for k in {**TESTS, **TWIN} if getattr(args, k) not in (None, False)}
+    given = {k for k in {**TESTS, **TWIN} if getattr(args, k) is not None
+             and getattr(args, k) is not False}         # (0 is given)
     if args.fe_twin:
         ignored = sorted(given - set(TWIN), key=list(TESTS).index)
         if ignored:
