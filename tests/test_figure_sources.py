@@ -25,11 +25,15 @@ QUOTES = [
     ("docs/measured.md", r"for (\S+) × fewer spheres; 100,000 steps",
      PAPER["sphere_count_ratio"]),
     ("docs/measured.md", r"100,000 steps in (\S+) h on one core", HOURS),
-    ("docs/performance.md", r"the full model: (\S+) × per step before contact",
+    ("docs/performance.md", r"the full model \(r = ρ\): (\S+) × per step before contact",
      PAPER["speedup_per_step"]),
     ("docs/performance.md", r"before contact, (\S+) × in the impact, 100,000",
      PAPER["speedup_per_step_impact"]),
     ("docs/performance.md", r"100,000 steps in (\S+) h \(docs/benchmarks.md", HOURS),
+    ("docs/where-coupling-pays.md", r"docs/benchmarks.md: (\S+) × per step in the impact",
+     PAPER["speedup_per_step_impact"]),
+    ("docs/where-coupling-pays.md", r"impact window, 100,000 steps in (\S+) h", HOURS),
+    ("docs/usage.md", r"speed a step up (\S+)× on 2 cores", BENCH["thread_speedup"]["2"]),
 ]
 
 
