@@ -34,6 +34,10 @@ QUOTES = [
      PAPER["speedup_per_step_impact"]),
     ("docs/where-coupling-pays.md", r"impact window, 100,000 steps in (\S+) h", HOURS),
     ("docs/usage.md", r"speed a step up (\S+)× on 2 cores", BENCH["thread_speedup"]["2"]),
+    ("docs/slab-bias.md", r"coupled model (\S+) × per step before contact",
+     PAPER["speedup_per_step"]),
+    ("docs/slab-bias.md", r"before contact and (\S+) × in the impact \(docs/benchmarks",
+     PAPER["speedup_per_step_impact"]),
 ]
 
 
