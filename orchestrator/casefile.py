@@ -108,13 +108,17 @@ def non_negative(v):
     return None if v >= 0 else ">= 0"
 
 
-def within(low, high, unit="", low_open=True):
-    """A check: low < v <= high (low <= v when not low_open): the physical range of a key, so
-    that no absurd value reaches YADE's or PETSc's C++."""
-    text = f"in {'(' if low_open else '['}{low:g}, {high:g}]{' ' + unit if unit else ''}"
+def within(low, high, unit="", low_open=True, high_open=False):
+    """A check: low < v <= high (each end included or excluded as told): the physical range
+    of a key or an option, so that no absurd value reaches YADE's or PETSc's C++; its text
+    (`check.text`) says the range."""
+    text = (f"in {'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+            f"{' ' + unit if unit else ''}")
 
     def check(v):
-        return None if (low < v if low_open else low <= v) and v <= high else text
+        return None if ((low < v if low_open else low <= v) and
+                        (v < high if high_open else v <= high)) else text
+    check.text = text
     return check
 
 

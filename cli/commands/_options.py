@@ -5,7 +5,7 @@ import math
 import tomllib
 from dataclasses import MISSING, fields
 
-from orchestrator.casefile import boolean
+from orchestrator.casefile import boolean, within
 from orchestrator.coupling.bridging import WEIGHTINGS
 
 
@@ -31,20 +31,18 @@ def ranged(low, high, kind=float, low_open=True, high_open=False):
     """An argparse type: a finite `kind` (float or int) in its physical range from `low` to
     `high` (each end excluded when open), so that no NaN, inf or absurd value reaches YADE's
     or PETSc's C++."""
-    text = (f"{'an integer' if kind is int else 'a finite number'} in "
-            f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}")
+    check = within(low, high, low_open=low_open, high_open=high_open)
 
     def parse(word):
         try:
             value = kind(word)
         except ValueError:
             value = None
-        if value is None or not math.isfinite(value) or not (
-                (low < value if low_open else low <= value) and
-                (value < high if high_open else value <= high)):
-            raise argparse.ArgumentTypeError(f"must be {text}, got {word!r}")
+        if value is None or not math.isfinite(value) or check(value):
+            raise argparse.ArgumentTypeError(
+                f"must be {'an integer' if kind is int else 'a finite number'} {check.text}, "
+                f"got {word!r}")
         return value
-    parse.range = (low, high, low_open, high_open)
     return parse
 
 
