@@ -367,3 +367,43 @@ def test_runs_recorded_before_the_quantities_are_compared_on_their_sensors(tmp_p
     assert "judgement" not in r and "within_full_scatter" in r["ensemble"]
     assert main(["compare", str(tmp_path / "full"), str(tmp_path / "c"), "--verdict", "--out",
                  str(tmp_path / "cmp2")]) == 2
+
+
+def test_coupled_runs_of_another_zone_are_judged_on_the_quantities_alone(tmp_path, capsys):
+    """Full members of the 0.6 m zone against coupled ones of a 1.0 m box, 1.01 × their pair:
+    the QoIs (placed alike in every model) are judged as for runs of one zone, equivalent on
+    all; the single-sphere sensors sit at other points, so neither their figures nor the
+    scatter verdicts that read them are given, and a line says so. Without the QoIs, or
+    against full runs kept elastic outside their zone, one line refuses."""
+    ensemble(tmp_path / "full", "full", FULL)
+    ensemble(tmp_path / "coupled", "coupled", {s: 1.01 * a for s, a in FULL.items()})
+    for seed in FULL:
+        path = tmp_path / "coupled" / f"seed-{seed}" / "summary.json"
+        summary = json.loads(path.read_text())
+        summary["spec"].update(de_zone=1.0, full_width=False)
+        write_json(path, summary)
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "coupled"), "--out",
+                 str(tmp_path / "cmp")]) == 0
+    r = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
+    assert r["headline"].startswith("yardstick: equivalent on 23 of 23")
+    assert "ensemble" not in r and r["pairs"]["1"]["sensors"] == {}
+    assert r["pairs"]["1"]["goals"] is None
+    assert any("only the quantities of interest" in w for w in r["warnings"])
+    assert not (tmp_path / "cmp" / "histories-seed-1.png").exists()
+    assert (tmp_path / "cmp" / "quantities.png").stat().st_size > 0
+    for side in ("full", "coupled"):
+        for seed in FULL:
+            (tmp_path / side / f"seed-{seed}" / QUANTITIES).unlink()
+    capsys.readouterr()
+    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "coupled"), "--out",
+                 str(tmp_path / "cmp2")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "de_zone 0.6 vs 1.0" in err and "has no quantities.csv" in err
+    for folder, model, key in (("elastic", "full", "elastic_outside"), ("c", "coupled", None)):
+        path = member(tmp_path / folder, model, 1, 1.0) / "summary.json"
+        summary = json.loads(path.read_text())
+        summary["spec"].update({key: True} if key else {"de_zone": 1.0})
+        write_json(path, summary)
+    assert main(["compare", str(tmp_path / "elastic"), str(tmp_path / "c"),
+                 "--out", str(tmp_path / "cmp3")]) == 2
+    assert "kept its links elastic outside" in capsys.readouterr().err

@@ -5,7 +5,8 @@ full members, the coupled runs are also judged against the full model's own scat
 (orchestrator.ensemble, orchestrator.verdicts). Writes comparison.json and PNGs.
 The compared side may also be full runs of another setting (a time step, the shear release):
 they are judged the same way, under the key "coupled"; same-seed members must cover the
-same time."""
+same time. Full runs of another zone judge the coupled runs on the QoIs alone (their
+sensors sit elsewhere: sensors_apart)."""
 import json
 from pathlib import Path
 
@@ -51,6 +52,7 @@ class Run:
             # a growing zone reads the sensors of its start zone: a square of side zone_start
             self.spec.update(de_zone=self.spec["zone_start"], full_width=False)
         self.seed = self.spec.get("seed", 1)
+        self.probes = None      # the label of the other zone's probes it stands for (compare)
         self.t, self.names, self.h = read_sensors(self.folder / "sensors.csv")
         # the quantities of interest (None: a run recorded before them)
         self.quantities = None
@@ -93,7 +95,10 @@ def load(full_dirs, coupled_dirs, verdict=False):
     if verdict or any(r.quantities is not None for r in [*full.values(), *coupled.values()]):
         _check_quantities([*full.values(), *coupled.values()])
     probed = take_probes(full, coupled)
-    same = [k for k in SAME if not (probed and k in ZONE_KEYS)]
+    apart = sensors_apart(full, coupled)
+    if apart:
+        _check_apart(full, coupled)
+    same = [k for k in SAME if not ((probed or apart) and k in ZONE_KEYS)]
     ensemble.check_same_kind({f"{r.model} {s}": {k: r.spec.get(k) for k in same}
                               for runs in (full, coupled) for s, r in runs.items()})
     names = next(iter(full.values())).names
@@ -140,6 +145,31 @@ def _check_quantities(runs):
     ensemble.check_same_kind({f"{r.model} {r.seed} ({r.folder})": definition(r) for r in runs})
 
 
+def sensors_apart(full, coupled):
+    """The full runs' single-sphere sensors sit at another zone's points than the compared
+    runs' (another de_zone, width, layers or band, and no probes of theirs): only the
+    quantities of interest, which every model places alike, can be compared."""
+    f, c = next(iter(full.values())), next(iter(coupled.values()))
+    return f.probes is None and any(f.spec.get(k) != c.spec.get(k) for k in ZONE_KEYS)
+
+
+def _check_apart(full, coupled):
+    """Runs of other zones compare on their QoIs alone: every run has them, and no full run
+    kept its links elastic outside its own zone (that zone is then physics, not a place)."""
+    f, c = next(iter(full.values())), next(iter(coupled.values()))
+    zones = ", ".join(f"{k} {f.spec.get(k)!r} vs {c.spec.get(k)!r}" for k in ZONE_KEYS
+                      if f.spec.get(k) != c.spec.get(k))
+    for r in [*full.values(), *coupled.values()]:
+        if r.quantities is None:
+            raise ValueError(f"the runs differ in their zones ({zones}) and {r.folder} has no "
+                             f"{QUANTITIES}: runs of other zones compare only on the "
+                             f"quantities of interest; run it again")
+        if r.spec.get("elastic_outside"):
+            raise ValueError(f"the runs differ in their zones ({zones}) and {r.folder} kept its "
+                             f"links elastic outside its own zone: compare it with runs of "
+                             f"that zone")
+
+
 def _check_duration(f, c):
     """A same-seed pair must cover the same time (to a sample interval), whatever its steps
     (the step follows the packing's smallest sphere: seeds differ by a few %)."""
@@ -180,7 +210,7 @@ def take_probes(full, coupled):
     label = labels.pop()
     for f in full.values():
         columns = [f.names.index(name) for name in full_names(label, c0.names)]
-        f.names, f.h = list(c0.names), f.h[:, columns]
+        f.names, f.h, f.probes = list(c0.names), f.h[:, columns], label
     return label
 
 
@@ -200,12 +230,18 @@ def compare(full, coupled, out, verdict=False, margin=None):
     equivalence test needs, the QoIs judged (judge.judge, `margin`: its margins) and the
     sensors against the full scatter (given anyway with two or more full runs)."""
     names = next(iter(full.values())).names
-    pairs = {s: pair(full[s], coupled[s]) for s in sorted(full.keys() & coupled.keys())}
+    apart = sensors_apart(full, coupled)
+    pairs = {s: pair(full[s], coupled[s], sensors=not apart)
+             for s in sorted(full.keys() & coupled.keys())}
     result = {"full": [str(r.folder) for r in full.values()],
               "coupled": [str(r.folder) for r in coupled.values()], "pairs": pairs}
     if len(pairs) == 1 and len(full) == len(coupled) == 1:
         result.update(next(iter(pairs.values())))         # one pair: its figures at the top
     result["warnings"] = last_sample_warnings(pairs)
+    if apart:
+        result["warnings"].append(
+            "the full runs' single-sphere sensors sit at another zone's points than the "
+            "compared runs': only the quantities of interest are compared")
     if verdict or judged(full, coupled):
         result["judgement"] = judge.judge(_quantities(full), _quantities(coupled), margin,
                                           _cracking_totals(full, coupled))
@@ -215,12 +251,12 @@ def compare(full, coupled, out, verdict=False, margin=None):
         result["warnings"] += [short] if short else []
         _plot_quantities(out / "quantities.png", full, coupled)
         _plot_profiles(out / "profiles.png", full, coupled)
-    if verdict or len(full) >= verdicts.MIN_FULL_MEMBERS:
+    if not apart and (verdict or len(full) >= verdicts.MIN_FULL_MEMBERS):
         result["ensemble"] = _ensemble(full, coupled, names, out)
     write_json(out / "comparison.json", result)
     for seed in pairs:
-        _plot_pair(out, compare_page.pair_suffix(seed, len(pairs)), names, full[seed],
-                   coupled[seed])
+        _plot_pair(out, compare_page.pair_suffix(seed, len(pairs)),
+                   [] if apart else names, full[seed], coupled[seed])
     compare_page.write(result, full, coupled, out)
     return result
 
@@ -240,13 +276,14 @@ def last_sample_warnings(pairs):
     return lines
 
 
-def pair(f, c):
+def pair(f, c, sensors=True):
     """A same-seed pair: sensor peaks, nRMS and peak times (z), damage sphere by sphere in
-    the DE zone, cost, and the slab issue's goals."""
+    the DE zone, cost, and the slab issue's goals (`sensors` False: the sensors sit at other
+    points, sensors_apart; neither they nor the goals that read them are given)."""
     t_end = min(f.t[-1], c.t[-1])
     t = f.t[f.t <= t_end]
-    sensors = {}
-    for i, name in enumerate(f.names):
+    names, sensors = (f.names if sensors else []), {}
+    for i, name in enumerate(names):
         fz, cz = f.h[f.t <= t_end, i, 2], np.interp(t, c.t, c.h[:, i, 2])
         peak_f, peak_c = np.abs(fz).max(), np.abs(cz).max()
         sensors[name] = {
@@ -269,7 +306,7 @@ def pair(f, c):
                                    "coupled": 1e5 * sc["s_per_step"]},
         "goals": verdicts.absolute_goals({k: v["nrms"] for k, v in sensors.items()},
                                          {k: v["peak_ratio"] for k, v in sensors.items()},
-                                         damage["damaged_volume_ratio"]),
+                                         damage["damaged_volume_ratio"]) if names else None,
     }
 
 
@@ -434,14 +471,15 @@ def _plot_pair(out, suffix, names, f, c):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True)
-    for ax, i, name in zip(axes.ravel(), range(len(names)), names):
-        for label, r, style in (("full", f, "-"), (_side([c]), c, "--")):
-            ax.plot(r.t * 1e3, r.h[:, i, 2] * 1e3, style, label=label)
-        ax.set(title=name, xlabel="time (ms)", ylabel="z displacement (mm)")
-        ax.legend()
-    fig.tight_layout()
-    save_figure(fig, out / f"histories{suffix}.png")
+    if names:
+        fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True)
+        for ax, i, name in zip(axes.ravel(), range(len(names)), names):
+            for label, r, style in (("full", f, "-"), (_side([c]), c, "--")):
+                ax.plot(r.t * 1e3, r.h[:, i, 2] * 1e3, style, label=label)
+            ax.set(title=name, xlabel="time (ms)", ylabel="z displacement (mm)")
+            ax.legend()
+        fig.tight_layout()
+        save_figure(fig, out / f"histories{suffix}.png")
     _, d_full, d_coupled, in_zone = _matched_damage(f, c)
     positions = c.damage["positions"][in_zone]
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))

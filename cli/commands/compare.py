@@ -42,7 +42,8 @@ def run(args):
                   f"{s['peak_time_coupled_s'] * 1e3:.2f} ms (coupled)")
         print(f"seed {seed} damaged volume ratio {_f(p['damage']['damaged_volume_ratio'])}, "
               f"speed-up per step {p['speedup_per_step']:.2f} (sphere ratio "
-              f"{p['sphere_count_ratio']:.2f}); goals {p['goals']}")
+              f"{p['sphere_count_ratio']:.2f})"
+              + ("" if p["goals"] is None else f"; goals {p['goals']}"))
     if "within_full_scatter" in r.get("ensemble", {}):
         for name, v in r["ensemble"]["within_full_scatter"]["sensors"].items():
             n = v["nrms"]
