@@ -113,7 +113,7 @@ bench: setup
 bench-quick: setup
 	$(PY) -m bench --quick
 
-# Where coupling pays (docs/where-coupling-pays.md): the coupled slab against the full
+# Where coupling pays (results/where-coupling-pays/page.md): the coupled slab against the full
 # ensembles at medium scale, 10 and 40 m/s, zones x bridging layers, and the paper-scale pair;
 # about 3 h of one core (STUDY_ARGS="--dry-run" prints the plan and its projected cost;
 # "--reuse-ensembles results/slab-medium" reuses make validate's runs; "--sweep full": 6.4 h).

@@ -11,7 +11,7 @@ import subprocess
 
 from bench.report import model_figures
 from bench.run import worker
-from cases.slab.study_plan import TIMING_STEPS, advance_steps, timed
+from cases.slab.study.plan import TIMING_STEPS, advance_steps, timed
 from common.files import write_json
 
 

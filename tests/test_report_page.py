@@ -112,7 +112,7 @@ def test_compare_report_opens_in_a_browser_with_every_picture_and_figure(tmp_pat
 
 
 def test_study_report_opens_in_a_browser_with_the_table_and_its_picture(tmp_path):
-    from cases.slab import study_report as report, study_table as st
+    from cases.slab.study import report, table as st
     from test_study import by_name, full_ensemble, runs_at, write_member
     runs = runs_at(40.0)
     full_ensemble(tmp_path, runs)
@@ -122,7 +122,7 @@ def test_study_report_opens_in_a_browser_with_the_table_and_its_picture(tmp_path
     table["table1"] = None
     (impact,) = table["impacts"]
     report.plot_impact(impact, tmp_path / f"{impact['group']}.png")
-    report.write(table, tmp_path, None, None)
+    report.write(table, tmp_path, "page.md", "# page\n")
     page = Tables()
     page.feed(browser_dom(tmp_path / "report.html"))
     assert page.body["data-images"] == page.body["data-images-decoded"] == "1"

@@ -7,11 +7,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from cases.slab import study_plan as sp
-from cases.slab import study_report as report
-from cases.slab import study_table as st
+from cases.slab.study import plan as sp
+from cases.slab.study import report
+from cases.slab.study import table as st
 from cases.slab.probes import add_probes, probe_name
-from cases.slab.study_runs import execute, missing_probes, probes_needed
+from cases.slab.study.runs import execute, missing_probes, probes_needed
 from common.files import save_npz, write_json
 from cli.main import main
 from orchestrator.run.folder import MARKER
@@ -417,7 +417,7 @@ def test_a_full_run_with_probes_records_what_a_full_run_of_that_zone_records(tmp
 def test_an_interrupted_run_of_the_study_carries_on_from_its_checkpoint(tmp_path):
     """A coupled run that left a checkpoint at step 40 of 60 (its results removed, as if it
     had been stopped there) is carried on, not started again, and ends as the whole run did."""
-    from cases.slab.study_runs import run_one
+    from cases.slab.study.runs import run_one
     from orchestrator.run.outputs import read_sensors
     r = sp.Planned(sp.Config("small", 40.0, "coupled"), 1, 60)
     folder = tmp_path / r.folder

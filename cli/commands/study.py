@@ -1,5 +1,5 @@
 """`study`: where coupling pays. The accuracy-cost map of the coupled slab at medium
-scale (cases.slab.study_plan says which runs), the paper-scale pair of the configuration it
+scale (cases.slab.study.plan says which runs), the paper-scale pair of the configuration it
 says pays, and the table, plots and docs page written from the run folders. Runs already
 finished with the same description are reused, so the study resumes where it stopped."""
 import argparse
@@ -11,7 +11,7 @@ NAME = "study"
 HELP = ("where coupling pays: the coupled slab's error against the full scatter and its "
         "speed-up, 10-40 m/s at medium scale, and the paper-scale pair (make study)")
 OUT = "results/where-coupling-pays"
-DOC = "docs/where-coupling-pays.md"
+PAGE = "page.md"      # the page written whole from the table, in the study's folder
 
 
 def configure(p):
@@ -38,7 +38,6 @@ def configure(p):
     p.add_argument("--no-timing", action="store_true",
                    help="no one-window timing of the models: speed-ups from the runs' own "
                         "wall times")
-    p.add_argument("--doc", default=DOC, help=f"the page written from the table (default {DOC})")
     add_threads(p, default=1)     # one run at a time, bit-identical: the budget is one core
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     # the machinery at a small scale and a few steps, for its tests
@@ -50,7 +49,7 @@ def configure(p):
 
 def run(args):
     from pathlib import Path
-    from cases.slab import study_plan as sp
+    from cases.slab.study import plan as sp
     if args.scale not in sp.LARGER_ZONE:
         raise ValueError(f"study: --scale must be one of {', '.join(sp.LARGER_ZONE)}, got "
                          f"{args.scale!r}")
@@ -63,8 +62,8 @@ def run(args):
     medium = sp.plan(only="medium", **options)      # --only says what runs, not what is shown
     if args.dry_run:
         return _dry_run(medium, options, args, out, index, bench)
-    from cases.slab import study_report as report, study_table as st
-    from cases.slab.study_runs import execute
+    from cases.slab.study import report, table as st
+    from cases.slab.study.runs import execute
     from yade_side import import_yade
     _prepare(out)
     import_yade(args.threads)
@@ -86,7 +85,7 @@ def run(args):
     table["plan"] = {"sweep": args.sweep, "projected_s": projected, "budget_s": sp.BUDGET_S,
                      "runs": [{"folder": r.folder, "seed": r.seed, "steps": r.spec().steps,
                                "status": outcomes[r.folder].status} for r in runs]}
-    images = _plots(table, out, Path(args.doc).parent if args.doc else None)
+    images = _plots(table, out)
     command = ("python3 -m cli study"
                + ("" if args.sweep == "default" else f" --sweep {args.sweep}")
                + ("" if args.velocities is None else
@@ -94,12 +93,12 @@ def run(args):
                + ("" if args.paper_seeds is None else
                   " --paper-seeds " + ",".join(map(str, args.paper_seeds))))
     text = report.doc(table, runs, outcomes, projected, args.sweep, images, command)
-    report.write(table, out, Path(args.doc) if args.doc else None, text)
+    report.write(table, out, PAGE, text)
     for impact, row in report.qualifying(table):
         print(f"qualifies: {report.impact_title(impact)}, {row['config']}: {row['goal']['why']}")
     if not report.qualifying(table):
         print("no configuration qualifies at this resolution (table.md has the figures)")
-    print(f"results in {out}" + (f"; page {args.doc}" if args.doc else ""))
+    print(f"results in {out}; the page: {out / PAGE} and {out / 'report.html'}")
     return 0
 
 
@@ -126,7 +125,7 @@ def _confirm_and_choose(medium, out, index, timing, run_extra):
     them), and the zone the map then chooses for paper scale; `timing(runs)`: the one-window
     timing of the runs (None: their own wall times). Returns (medium runs and confirmations,
     choice)."""
-    from cases.slab import study_plan as sp, study_table as st
+    from cases.slab.study import plan as sp, table as st
     extra = sp.confirmations(medium, st.qualifying_configs(
         st.build(medium, out, index, timing(medium)), medium))
     run_extra(extra)
@@ -135,25 +134,19 @@ def _confirm_and_choose(medium, out, index, timing, run_extra):
 
 
 def _projected(runs, bench):
-    from cases.slab import study_plan as sp
+    from cases.slab.study import plan as sp
     return (sum(sp.run_cost(r, bench) for r in runs if r.when is None)
             + sp.timing_cost(runs, bench))
 
 
-def _plots(table, out, doc_dir):
-    """One PNG per impact in `out`, and a copy beside the page; {group: path from the page}."""
-    from cases.slab.study_report import plot_impact
+def _plots(table, out):
+    """One PNG per impact in `out`, beside the page; {group: its name}."""
+    from cases.slab.study.report import plot_impact
     images = {}
-    if doc_dir is not None:
-        doc_dir.mkdir(parents=True, exist_ok=True)
     for impact in table["impacts"]:
-        if impact["scale"] == "paper":
-            continue
-        name = f"where-coupling-pays-{impact['group']}.png"
-        plot_impact(impact, out / f"{impact['group']}.png")
-        if doc_dir is not None:
-            plot_impact(impact, doc_dir / name)
-            images[impact["group"]] = name
+        if impact["scale"] != "paper":
+            images[impact["group"]] = f"{impact['group']}.png"
+            plot_impact(impact, out / images[impact["group"]])
     return images
 
 
@@ -161,7 +154,7 @@ def _dry_run(medium, options, args, out, index, bench):
     """The plan, one line per run: folder, steps, projected cost, and what is done (the
     confirmations and the paper zone as the recorded timing.json says)."""
     import json
-    from cases.slab import study_plan as sp
+    from cases.slab.study import plan as sp
     choice, confirming = None, "(seeds 2 and 3 of each fixed zone that qualifies on seed 1)"
     if all(sp.where(r, out, index)[1] is not None for r in medium if r.when is None):
         path = out / "timing.json"

@@ -12,7 +12,7 @@ import numpy as np
 
 from cases.slab.compare import Run
 from cases.slab.probes import full_names
-from cases.slab.study_plan import Config, where
+from cases.slab.study.plan import Config, where
 from orchestrator import ensemble, verdicts
 
 GOAL_SPEEDUP = {"small": 5.0, "medium": 5.0, "paper": 10.0}   # per step, the issue's

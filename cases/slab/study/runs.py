@@ -1,4 +1,4 @@
-"""Running the study's plan (cases.slab.study_plan): each run an ordinary slab run in its
+"""Running the study's plan (cases.slab.study.plan): each run an ordinary slab run in its
 folder, skipped when done with the same description (here or in a reused ensemble), so that
 the study resumes after an interruption. The full members of an impact run after its coupled
 runs and carry the sensors of each coupled zone (cases.slab.probes), the automatic zones'
@@ -6,9 +6,9 @@ final zones included."""
 from dataclasses import dataclass
 from pathlib import Path
 
-from cases.slab.study_plan import complete, where
+from cases.slab.study.plan import complete, where
 from cases.slab.probes import full_names
-from cases.slab.study_table import layout_label
+from cases.slab.study.table import layout_label
 
 
 @dataclass

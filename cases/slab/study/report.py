@@ -1,9 +1,9 @@
-"""What the study "where coupling pays" writes from its table (cases.slab.study_table):
+"""What the study "where coupling pays" writes from its table (cases.slab.study.table):
 table.md, one PNG per impact (each sensor's and the damaged volume's deviation against the
 per-step speed-up, the full scatter as a band), and the docs page with the paper's Table 1 row
 and the projection to 100,000 steps."""
 from common.files import save_figure, write_text
-from cases.slab.study_plan import REINFORCED_ROWS
+from cases.slab.study.plan import REINFORCED_ROWS
 
 PAPER_STEPS = 100_000
 SENSORS = ("under_impact", "de_zone", "bridging", "fe_node")
@@ -161,7 +161,7 @@ def plot_impact(impact, path):
     """One panel per sensor and one for the damaged volume: each configuration's largest
     deviation from the full mean (marker) against its per-step speed-up, over a grey band
     from 0 to the full scatter that judges it; the goal's speed-up as a dashed line."""
-    from cases.slab.study_table import GOAL_SPEEDUP
+    from cases.slab.study.table import GOAL_SPEEDUP
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -210,7 +210,7 @@ def qualifying(table):
 
 
 def doc(table, runs, outcomes, projected_s, sweep, images, command):
-    """docs/where-coupling-pays.md, written from the table: the runs made, what qualifies
+    """The study's page (markdown), written whole from the table: the runs made, what qualifies
     (or "none at this resolution", with the figures), the paper pair and its Table 1 row."""
     lines = ["# Where coupling pays", "",
              f"Written by `{command}` (sweep `{sweep}`) from `table.json`; every figure below "
@@ -331,13 +331,13 @@ def _paper_lines(table):
     return lines
 
 
-def write(table, out, doc_path, doc_text):
+def write(table, out, page_name, page_text):
+    """The study's folder `out`: table.json, table.md, report.html and the page (doc)."""
     from common.files import write_json
     write_json(out / "table.json", table)
     write_text(out / "table.md", markdown(table))
     page(table, out)
-    if doc_path is not None:
-        write_text(doc_path, doc_text)
+    write_text(out / page_name, page_text)
 
 
 def page(table, out):

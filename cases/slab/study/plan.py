@@ -71,7 +71,7 @@ REINFORCED_ROWS = ("in `--sweep full` only (each velocity: its full ensemble, th
 AUTO_OVER_FULL = {"small": 0.55, "medium": 1.1, "paper": 1.1}
 TIMING_STEPS = (3, 30)    # warm-up and timed steps of the one-window timing of each model
 TIMING_AFTER_CONTACT_S = 2e-4
-BENCH = Path(__file__).resolve().parents[2] / "bench" / "results.json"
+BENCH = Path(__file__).resolve().parents[3] / "bench" / "results.json"
 SWEEPS = ("default", "full")
 # the paper pair's seeds: one full paper run costs about 1.3 h of one core, a verdict against
 # the full scatter needs two (orchestrator/verdicts.py)
