@@ -39,9 +39,8 @@ def test_a_small_start_zone_grows_and_ends_clean(grown):
 
 def test_auto_equals_the_fixed_run_with_its_final_zone(grown, tmp_path):
     from cases.slab import SlabModel, SlabSpec
-    from cases.slab.geometry import slab_grid
     from cases.slab.model import run_built
-    from cases.slab.zone import zone_grid
+    from cases.slab.zone import slab_grid, zone_grid
     s = json.loads((grown / "summary.json").read_text())
     spec = SlabSpec(**s["spec"])
     mask = np.zeros((15, 12), bool)

@@ -8,7 +8,7 @@ import ufl
 from dolfinx import fem
 
 from cases.slab import SlabModel, SlabSpec
-from cases.slab.geometry import GROWTH, fe_axes, slab_grid
+from cases.slab.zone import GROWTH, fe_axes, slab_grid
 from cases.slab.scales import SLAB
 
 # the small slab's full-width strip with three layers, the geometry these figures are for

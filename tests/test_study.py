@@ -346,7 +346,7 @@ def test_an_ensemble_of_mixed_scales_is_refused(tmp_path, capsys):
 def test_probes_are_the_sensors_a_run_of_that_zone_would_have():
     """A stand-in full model: spheres on a line along x through the sensor points; the
     probes of another layout are the spheres nearest that layout's points."""
-    from cases.slab.geometry import sensor_points, slab_grid
+    from cases.slab.zone import sensor_points, slab_grid
     from cases.slab.model import SlabModel
     spec = sp.Config("medium", 40.0, "full").defaults()
     grid = slab_grid(spec)
@@ -392,7 +392,7 @@ def test_plots_and_page_follow_the_table(forty):
 def test_a_full_run_with_probes_records_what_a_full_run_of_that_zone_records(tmp_path):
     """The full model's physics does not depend on the coupled zone: the probes of a wider
     strip with one layer equal, bit for bit, the sensors of a full run described with it."""
-    from cases.slab.geometry import slab_grid
+    from cases.slab.zone import slab_grid
     from cases.slab.runs import run
     from cases.slab.probes import run_full
     from orchestrator.run.outputs import read_sensors

@@ -9,7 +9,7 @@ def band_table():
     """One row per scale: (scale, ratio, n_b, attenuation at r = 1, auto's r, its
     attenuation, its LF change, rule's n_b, rule's r)."""
     from dataclasses import replace
-    from cases.slab.geometry import slab_grid
+    from cases.slab.zone import slab_grid
     from cases.slab.scales import SCALES
     from cases.slab.spec import SlabSpec
     from orchestrator.coupling.relaxation import Prediction, auto_coupling

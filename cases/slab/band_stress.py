@@ -17,8 +17,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.ndimage import distance_transform_cdt
 
-from cases.slab.geometry import cell_grid, slab_grid
 from cases.slab.spec import SlabSpec
+from cases.slab.zone import cell_grid, slab_grid
 
 KEY_DIGITS = 6   # cell centres are matched between the two meshes of one grid to 1 µm
 HOTTEST = 6      # cells printed per run

@@ -378,7 +378,7 @@ def _cracking_maps(out, full, coupled):
     """cracking_maps.png: the mean energy dissipated by cracking per plan cell of the FE grid
     (J), full beside coupled (the paper's Fig. 10 in energy), and the two maps' correlation
     (None without the measure)."""
-    from cases.slab.geometry import plan_cell
+    from cases.slab.zone import plan_cell
     runs = [*full.values(), *coupled.values()]
     if any("crack_energy" not in r.damage for r in runs):
         return None

@@ -21,10 +21,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from cases.slab.geometry import cell_grid, slab_bridging
 from cases.slab.model import SlabModel, run_built
 from cases.slab.search import cannot_pay, fallback
-from cases.slab.zone import check, zone_grid
+from cases.slab.zone import cell_grid, check, slab_bridging, zone_grid
 from common.files import write_json
 from orchestrator.run.autozone import plot_zones
 from orchestrator.run.grow import GrowingModel, ZoneLimit

@@ -17,8 +17,8 @@ import argparse
 
 import numpy as np
 
-from cases.slab.geometry import SLAB, make_packings
-from cases.slab.scales import SCALES, concrete_set
+from cases.slab.packings import make_packings
+from cases.slab.scales import SCALES, SLAB, concrete_set
 from cases.slab.spec import SlabSpec
 from yade_side.affine import affine_stiffness, energy_ratio_bounds, isotropic_stiffness
 from yade_side.scene import link_pairs

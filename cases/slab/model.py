@@ -12,10 +12,10 @@ from time import perf_counter
 
 import numpy as np
 
-from cases.slab.geometry import fe_axes, make_packings, sensor_points, slab_bridging
+from cases.slab.packings import make_packings
 from cases.slab.reinforced import YIELD_EVERY
 from cases.slab.scales import SLAB
-from cases.slab.zone import model_grid
+from cases.slab.zone import fe_axes, model_grid, sensor_points, slab_bridging
 from orchestrator.builder import CouplingSpec, Description, Model, assemble
 
 MODELS = ("full", "coupled")

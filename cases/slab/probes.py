@@ -1,12 +1,12 @@
 """Sensors of other DE zones in a full slab run. A coupled model places its sensors relative to
-its own DE zone and band (cases.slab.geometry.sensor_points); the full model's physics does not
+its own DE zone and band (cases.slab.zone.sensor_points); the full model's physics does not
 depend on the zone (no FE, β = 1, the DE time step alone), only where its sensors sit. So one
 full run can stand for the full run of every zone: beside its own sensors it records, for each
 other layout (a label and the slab grid of its zone), the sensors a full run with that zone would
 have, named "LABEL/SENSOR". The placement is SlabModel's, applied to the layout's grid."""
 import numpy as np
 
-from cases.slab.geometry import sensor_points
+from cases.slab.zone import sensor_points
 
 SEPARATOR = "/"
 

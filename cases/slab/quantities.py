@@ -10,7 +10,7 @@
   samples integrate to the impulse exactly, whatever the interval;
 - penetration: how far the impactor's front has gone below the slab's original top face, m
   (negative: above): its descent since t = 0 less the fall before the first contact
-  (impactor_gap, exact by construction: cases.slab.geometry.make_packings); the front is the
+  (impactor_gap, exact by construction: cases.slab.packings.make_packings); the front is the
   mean z of the impactor's spheres that start within one sphere diameter of its lowest
   centre (a mean, like the patches: a random packing's faces are rough by a radius, and
   the front moves apart from the centre of mass where the impactor crushes);

@@ -8,9 +8,8 @@ search and zones.png the zones grown over the slab's plan.
 """
 from dataclasses import asdict, replace
 
-from cases.slab.geometry import cell_grid
 from cases.slab.model import SlabModel, run, run_built
-from cases.slab.zone import check, zone_grid
+from cases.slab.zone import cell_grid, check, zone_grid
 from common.files import write_json
 from orchestrator.run.autozone import find_zone, plot_zones
 

@@ -222,7 +222,7 @@ class SlabSpec:
         if self.zone_cells is not None:
             self._check_cells()
         if self.relaxation == "auto" and chosen:
-            from cases.slab.geometry import slab_grid
+            from cases.slab.zone import slab_grid
             from orchestrator.coupling.relaxation import auto_relaxation
             ratio = slab_grid(self).band_h / (2 * self.radius)
             self.relaxation = float(auto_relaxation(ratio, self.layers, self.variant,
@@ -285,7 +285,7 @@ class SlabSpec:
                              f"{self.concrete!r} set at scale {self.scale!r} has no separation "
                              f"test ({material.record}); give material.fracture_energy "
                              f"(--fracture-energy)")
-        from cases.slab.geometry import slab_grid
+        from cases.slab.zone import slab_grid
         from fenicsx_side.damage_law import ConcreteDamage
         grid = slab_grid(self)
         widest = max(grid.h, SLAB[2] / grid.n[2])      # no cell is wider along any direction

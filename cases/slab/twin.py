@@ -171,7 +171,7 @@ def twin(spec, record, cycle=None, bending=None, rate_speedup=RATE_SPEEDUP):
     """The record's specimens with the slab's FE law (spec: a SlabSpec with fe_material
     'damage'), the cycle if the spheres' one is given (spheres_cycle) and the bending strip if
     the spheres' (travel, force) is. Returns {mode: (TwinRun, figures)}."""
-    from cases.slab.geometry import slab_grid
+    from cases.slab.zone import slab_grid
     from cases.slab.scales import SLAB
     from fenicsx_side.damage_law import ConcreteDamage
     law = ConcreteDamage(**spec.damage_law())

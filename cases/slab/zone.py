@@ -1,14 +1,90 @@
-"""The slab's automatic DE zone (`--zone auto`, orchestrator.run.autozone), its cells and
-checks: zones are masks of the slab's in-plane FE cells, through the thickness. It starts
-from the spec's box zone (or a square of side zone_start under the impact) and may grow up
-to a full-width strip along x, by default the slab less the supports and the bridging band.
-The search that runs the attempts is cases.slab.search."""
-from dataclasses import replace
+"""The slab's FE grid and its DE zone: the structured grid (uniform, or graded towards the
+band), the box zone of the spec or a zone of in-plane cells, the start and limit of a zone that
+grows (`--zone grow|auto`, cases.slab.grow, cases.slab.search) and its trip levels, the
+bridging band, and the sensor points the zone places."""
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from cases.slab.geometry import Grid, cell_grid, slab_grid
+from cases.slab.scales import SLAB
+from orchestrator.coupling.bridging import BoxZone, Bridging
+from orchestrator.coupling.cells import CellGrid
 from orchestrator.run.autozone import TripLevels, check_zones
+
+
+@dataclass
+class Grid:
+    """The FE grid of the slab (square in-plane cells of size h) and the DE zone on it."""
+    h: float
+    n: tuple
+    hole_lo: np.ndarray
+    hole_hi: np.ndarray
+    axes: tuple = (0, 1)  # the axes along which the DE zone is bounded
+    cells: np.ndarray = None  # a DE zone of in-plane grid cells (nx, ny) mask (hole_*: its
+                              # bounding box), else the box [hole_lo, hole_hi]
+    h_band: float = None      # a graded mesh: the band's cells (None: uniform cells of h)
+    layers: int = 0           # a graded mesh: the band's cells of h_band on each side
+
+    @property
+    def width(self):
+        return self.hole_hi - self.hole_lo
+
+    @property
+    def band_h(self):
+        """The in-plane size of the bridging band's cells."""
+        return self.h if self.h_band is None else self.h_band
+
+
+GROWTH = 1.2   # a graded mesh's largest ratio of neighbouring cells (docs/performance.md)
+
+
+def fe_axes(grid):
+    """The FE grid's planes along x, y, z: uniform, or graded along the zone's axes from the
+    band's cells to h (fenicsx_side.mesh.graded_axis)."""
+    axes = [np.linspace(0.0, SLAB[i], grid.n[i] + 1) for i in range(3)]
+    if grid.h_band is not None:
+        from fenicsx_side.mesh import graded_axis
+        for i in grid.axes:
+            axes[i] = graded_axis(0.0, SLAB[i], grid.hole_lo[i], grid.hole_hi[i], grid.h_band,
+                                  grid.layers, GROWTH, h_max=grid.h)
+    return axes
+
+
+def plan_cell(spec):
+    """The in-plane size h of the slab's FE cells (slab_grid's) for a spec given as a dict
+    (summary.json's): a plan grid of h puts each FE cell in a grid cell of its own."""
+    k = max(1, round(0.5 / (spec["fe_ratio"] * 2 * spec["radius"])))
+    return 0.5 / k
+
+
+def slab_grid(spec):
+    """In-plane size h = 0.5/k m closest to fe_ratio × diameter, so that both 2.5 m and 2 m
+    are whole numbers of cells; DE zone = the central block of cells nearest de_zone (along x
+    only with full_width)."""
+    h = plan_cell({"fe_ratio": spec.fe_ratio, "radius": spec.radius})
+    n = [round(SLAB[0] / h), round(SLAB[1] / h),
+         max(1, round(SLAB[2] / (spec.fe_ratio_thickness * 2 * spec.radius)))]
+    lo, hi = np.zeros(3), np.array(SLAB)
+    axes = (0,) if spec.full_width else (0, 1)
+    for axis in axes:
+        cells = max(1, round(spec.de_zone / h))
+        if (n[axis] - cells) % 2:  # centred on the slab
+            cells += 1
+        start = (n[axis] - cells) // 2
+        if start < spec.layers + 1:
+            raise ValueError(f"slab: a DE zone of {cells} cells and {spec.layers} bridging "
+                             f"layers do not fit in the {n[axis]} cells along axis {axis} with "
+                             f"FE beyond them; reduce de_zone or layers, or the sphere radius")
+        lo[axis], hi[axis] = start * h, (start + cells) * h
+    if spec.band_ratio is None:
+        return Grid(h, tuple(n), lo, hi, axes)
+    return Grid(h, tuple(n), lo, hi, axes, h_band=spec.band_ratio * 2 * spec.radius,
+                layers=spec.layers)
+
+
+def cell_grid(grid):
+    """The slab's in-plane grid of FE cells, on which DE zones of cells are masks."""
+    return CellGrid((0.0, 0.0, 0.0), SLAB, grid.n, axes=(0, 1))
 
 
 def zone_grid(base, mask):
@@ -74,3 +150,21 @@ def check(spec):
     except ValueError as e:
         raise ValueError(f"slab: {e}") from None
     return base, start, limit, levels(spec)
+
+
+def slab_bridging(spec, grid):
+    zone = (BoxZone(grid.hole_lo, grid.hole_hi, grid.axes) if grid.cells is None
+            else cell_grid(grid).zone(grid.cells))
+    return Bridging(zone, spec.layers, grid.band_h)
+
+
+def sensor_points(spec, grid):
+    xc, yc = 0.5 * SLAB[0], 0.5 * SLAB[1]
+    zmid = 0.5 * SLAB[2]
+    w = spec.layers * grid.band_h
+    away = 0.5 * (xc + 0.5 * spec.impactor_side + grid.hole_hi[0])
+    return {
+        "under_impact": (xc, yc, spec.radius),
+        "de_zone": (away, yc, zmid),
+        "bridging": (grid.hole_hi[0] + 0.5 * w, yc, zmid),
+    }

@@ -131,7 +131,7 @@ def _zone_run(folder):
 def _check_zone_fits(folder, summary, spec):
     """The zone's cells of the run `folder` (its summary) are on this run's FE grid: the same
     scale, sphere size and FE ratios, the same cells. Another seed or impact is noted."""
-    from cases.slab.geometry import slab_grid
+    from cases.slab.zone import slab_grid
     theirs = summary.get("spec", {})
     for key in ("scale", "radius", "fe_ratio", "fe_ratio_thickness"):
         if key in theirs and theirs[key] != getattr(spec, key):

@@ -302,7 +302,7 @@ def counts(spec, full_spheres):
     """Estimated (spheres, bridging spheres, FE nodes) of the coupled model of `spec` (a box
     zone), from the share of the slab its zone and band cover; `full_spheres`: the full model's
     count (slab and impactor)."""
-    from cases.slab.geometry import slab_grid
+    from cases.slab.zone import slab_grid
     g = slab_grid(spec)
     nx, ny, nz = g.n
     cells = [round(w / g.h) for w in g.width[:2]]

@@ -21,13 +21,12 @@ class Outcome:
 def layout(run, summary):
     """(spec, grid) of the zone of the coupled `run` (summary: its finished run's, for the
     automatic zone's final cells), or None when it ended at its limit."""
+    from cases.slab.zone import cells_grid, slab_grid
     spec = run.spec()
     if run.config.zone != "auto":
-        from cases.slab.geometry import slab_grid
         return spec, slab_grid(spec)
     if summary is None or summary.get("zone_outcome") != "clean":
         return None
-    from cases.slab.zone import cells_grid
     return spec, cells_grid(spec, summary["zone_final"]["cells"])
 
 
