@@ -123,6 +123,41 @@ def coupling_parts(m, repeat=20):
     return parts
 
 
+# the task's keys: those it must have, and the others it may have
+TASK_NEEDS = ("model", "warmup", "steps")
+TASK_MAY = ("scale", "spec", "zone_cells", "impact_after_s", "variants", "output", "conversion",
+            "profile")
+MODELS = ("full", "coupled")
+
+
+def check_task(task):
+    """Refuse a task the worker cannot run, in one line naming the key: not an object, a
+    key it does not know, one it needs missing, a model or a spec field that does not exist.
+    The values themselves are SlabSpec's to check, as a run does."""
+    from dataclasses import fields
+    from cases.slab.spec import SlabSpec
+    if not isinstance(task, dict):
+        raise ValueError(f"bench.worker: the task must be a JSON object, got {task!r}")
+    unknown = sorted(set(task) - set(TASK_NEEDS) - set(TASK_MAY))
+    missing = [k for k in TASK_NEEDS if k not in task]
+    if "scale" not in task and "spec" not in task:
+        missing.append("scale (or spec)")
+    if unknown or missing:
+        raise ValueError("bench.worker: " + "; ".join(
+            ([f"unknown key(s) {', '.join(unknown)} (it knows "
+              f"{', '.join(TASK_NEEDS + TASK_MAY)})"] if unknown else [])
+            + ([f"missing {', '.join(missing)}"] if missing else [])))
+    if task["model"] not in MODELS:
+        raise ValueError(f"bench.worker: model = {task['model']!r}: one of {', '.join(MODELS)}")
+    spec = task.get("spec", {})
+    if not isinstance(spec, dict):
+        raise ValueError(f"bench.worker: spec must be an object of SlabSpec fields, got {spec!r}")
+    known = {f.name for f in fields(SlabSpec)}
+    if set(spec) - known:
+        raise ValueError(f"bench.worker: spec: no SlabSpec field "
+                         f"{', '.join(sorted(set(spec) - known))}")
+
+
 def run(task):
     from cases.slab import SlabModel, SlabSpec
     from yade_side import import_yade
@@ -253,5 +288,23 @@ def _time_variant(m, variant, task):
     return out
 
 
+def main(argv):
+    """One JSON line of results, or one line saying what is wrong with the task (exit 2)."""
+    try:
+        if len(argv) != 1:
+            raise ValueError("bench.worker: give one task, a JSON object (see this module's "
+                             "docstring)")
+        try:
+            task = json.loads(argv[0])
+        except ValueError as e:
+            raise ValueError(f"bench.worker: the task is not JSON ({e})") from None
+        check_task(task)
+    except ValueError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    print(json.dumps(run(task)), flush=True)
+    return 0
+
+
 if __name__ == "__main__":
-    print(json.dumps(run(json.loads(sys.argv[1]))), flush=True)
+    sys.exit(main(sys.argv[1:]))

@@ -1,6 +1,6 @@
 """Every `python3 -m cli ...` command of README.md and docs/*.md parses with the real
 parsers, as written (nothing runs): in code blocks (shell variables of the block expanded,
-continued lines joined) and in inline code, even across lines of prose. A placeholder value
+continued lines and quoted values over lines joined) and in inline code, even across lines of prose. A placeholder value
 (S, N, DIR, ...) stands for a valid one of its option (PLACEHOLDERS); `[...]` is optional
 (its content is parsed), `a|b` a choice (the first is parsed)."""
 import contextlib
@@ -38,9 +38,9 @@ def commands(page):
             found += _block(text, line.start(), line.group(0))
             prose = _blank(prose, line.start(), line.end())
     for span in re.finditer(r"`([^`]+)`", prose):
-        if "-m cli " in span.group(1):
+        if "-m cli " in span.group(1) or "-m bench.worker " in span.group(1):
             found.append((_line(text, span.start()), " ".join(span.group(1).split())))
-    return [(n, c.split("-m cli ", 1)[1]) for n, c in found if "-m cli " in c]
+    return found
 
 
 def _blank(text, start, end):
@@ -57,6 +57,9 @@ def _block(text, start, body):
         while line.rstrip().endswith("\\") and i + 1 < len(lines):
             i += 1
             line = line.rstrip()[:-1] + " " + lines[i].strip()
+        while line.count("'") % 2 and i + 1 < len(lines):     # a quoted value goes on
+            i += 1
+            line += " " + lines[i].strip()
         i += 1
         assigned = re.match(r"^\s*([A-Z_]+)=\"([^\"]*)\"", line)
         if assigned:
@@ -85,7 +88,19 @@ def argv_of(command):
     return words
 
 
-CASES = [(page, line, command) for page in PAGES for line, command in commands(page)]
+def cli_commands(page):
+    """(line, argv text after `-m cli`) of the page's CLI commands."""
+    return [(n, c.split("-m cli ", 1)[1]) for n, c in commands(page) if "-m cli " in c]
+
+
+def worker_tasks(page):
+    """(line, task text) of the page's `-m bench.worker '<task>'` commands."""
+    return [(n, shlex.split(c.split("-m bench.worker ", 1)[1])[0]) for n, c in commands(page)
+            if "-m bench.worker '" in c]
+
+
+CASES = [(page, line, command) for page in PAGES for line, command in cli_commands(page)]
+TASKS = [(page, line, task) for page in PAGES for line, task in worker_tasks(page)]
 
 
 def test_the_pages_have_commands_and_run_them_with_the_readme_s_interpreter():
@@ -109,3 +124,31 @@ def test_a_documented_command_parses_as_written(page, line, command):
             build_parser().parse_args(argv)
     except SystemExit:
         pytest.fail(f"{page.relative_to(ROOT)}:{line}: `{command}`: {err.getvalue().strip()}")
+
+
+@pytest.mark.parametrize("page, line, task", TASKS, ids=[f"{p.name}:{n}" for p, n, _ in TASKS])
+def test_a_documented_worker_task_has_the_worker_s_keys(page, line, task):
+    import json
+    from bench.worker import check_task
+    try:
+        check_task(json.loads(task))
+    except ValueError as e:
+        pytest.fail(f"{page.relative_to(ROOT)}:{line}: {e}")
+
+
+def test_worker_tasks_are_found_and_a_bad_one_is_one_line(capsys):
+    """The pages' tasks are read (three pages hold some); a task with an unknown key, a
+    missing one or a spec field that does not exist gets one line naming it, exit 2."""
+    from bench.worker import main
+    assert len({p for p, _, _ in TASKS}) >= 3
+    for task, words in (('{"scale": "small", "model": "full", "warmup": 1, "step": 2}',
+                         ("unknown key(s) step", "missing steps")),
+                        ('{"model": "full", "warmup": 1, "steps": 2}', ("missing scale",)),
+                        ('{"scale": "small", "model": "fe", "warmup": 1, "steps": 2}',
+                         ("model = 'fe'",)),
+                        ('{"model": "full", "warmup": 1, "steps": 2, "spec": {"sacle": 1}}',
+                         ("no SlabSpec field sacle",)),
+                        ("[1]", ("must be a JSON object",)), ("{", ("not JSON",))):
+        assert main([task]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and all(w in err for w in words), err
