@@ -509,6 +509,7 @@ def test_ctrl_c_finishes_the_step_checkpoints_and_exits_130(tmp_path):
     assert json.loads((out / "summary.json").read_text())["steps"] == 60
 
 
+@pytest.mark.slow
 def test_a_stopped_ensemble_stops_its_members_and_starts_no_more(tmp_path):
     """SIGTERM to `slab --seeds`: the running member checkpoints and ends, the next is not
     started, the parent exits 143 in one line; no member is left running."""

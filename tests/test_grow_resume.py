@@ -68,7 +68,7 @@ def same_bits(a, b):
     return a.shape == b.shape and np.array_equal(a.view(np.int64), b.view(np.int64))
 
 
-@pytest.mark.parametrize("step", [STOP_AT, 100])
+@pytest.mark.parametrize("step", [STOP_AT, pytest.param(100, marks=pytest.mark.slow)])
 def test_a_grown_run_resumed_ends_as_the_run_not_stopped(runs, tmp_path, step):
     """Resumed from the checkpoint of step 200, taken after the first conversion (at that very
     step), as stopped by SIGTERM; or from the one of step 100, before any, as a run

@@ -31,6 +31,7 @@ def test_owners_are_slices_along_x_of_equal_count():
         assert x[owner == a].max() < x[owner == b].min()
 
 
+@pytest.mark.slow
 def test_three_ranks_give_the_serial_run_to_round_off(tmp_path):
     """Rank 0 and two workers, the crack crossing the slices' boundary under the impactor.
     The workers sum a sphere's forces in another order than the serial loop (and the links

@@ -81,7 +81,8 @@ def assert_same_results(a, b):
     assert sa["fe_peak_stress"]["von_mises_Pa"] > 0
 
 
-@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
+@pytest.mark.parametrize("sig", [pytest.param(signal.SIGTERM, marks=pytest.mark.slow),
+                                 signal.SIGKILL])
 def test_a_stopped_run_resumes_to_the_uninterrupted_results(reference, tmp_path, sig):
     out = tmp_path / "run"
     proc = start(out)
