@@ -374,17 +374,20 @@ def test_the_post_run_damage_check_reads_the_cells_outside_the_band():
 
 
 def test_an_ensemble_member_whose_zone_search_ends_at_its_limit_is_named_as_such(tmp_path):
+    """An outcome (exit 1 and a zone at its limit: the ensemble exits 1, as one run does),
+    not a fault (any other exit, or no summary: the ensemble exits 2)."""
     import json
     from cli.commands.slab import _why_no_result
     (tmp_path / "summary.json").write_text(json.dumps(
         {"zone_outcome": "limit", "zone_limit_reached": "cost", "zone_attempts": [{}] * 9}))
     assert _why_no_result(tmp_path, 1) == ("coupling cannot pay: its zone search reached the "
-                                           "budget, zone.cost after 9 attempts")
-    assert _why_no_result(tmp_path / "none", 1) == "exit 1"
+                                           "budget, zone.cost after 9 attempts", True)
+    assert _why_no_result(tmp_path, 2) == ("exit 2", False)
+    assert _why_no_result(tmp_path / "none", 1) == ("exit 1", False)
     (tmp_path / "summary.json").write_text(json.dumps(
         {"zone_outcome": "limit", "zone_limit_reached": "cells", "zone_conversions": [{}] * 2}))
     assert _why_no_result(tmp_path, 1) == ("coupling cannot pay: its growing zone reached the "
-                                           "zone's limit after 2 conversions")
+                                           "zone's limit after 2 conversions", True)
 
 
 def test_ahead_flags_the_cells_past_its_share_of_the_level_and_only_those_that_tripped_limit():

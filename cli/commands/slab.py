@@ -231,30 +231,35 @@ def _ensemble(model, args, spec):
         raise Stopped(f"ensemble {top}: stopped, and its running members with it (each "
                       f"carries on with `slab --resume {top}/seed-N`; a member not started "
                       f"runs with `--seed N`)", stopped[0])
-    failed = [f"seed {s} ({_why_no_result(top / f'seed-{s}', c)})"
-              for s, c in codes.items() if c]
-    if failed:
+    why = {s: _why_no_result(top / f"seed-{s}", c) for s, c in codes.items() if c}
+    failed = [f"seed {s} ({text})" for s, (text, _) in why.items()]
+    if any(not outcome for _, outcome in why.values()):
         raise ValueError(f"ensemble {top}: {len(failed)} of {len(codes)} members gave no "
                          f"result: {', '.join(failed)}; each member's folder says why")
+    if failed:      # an outcome, as for one run (exit 1): the zone says coupling cannot pay
+        print(f"ensemble {top}: {len(failed)} of {len(codes)} members end with no result: "
+              f"{', '.join(failed)}")
+        return 1
     return 0
 
 
 def _why_no_result(folder, code):
-    """A member's exit `code`, or what its automatic zone reached (an outcome, not a fault)."""
+    """(why, outcome) of a member that exited with `code`: what its automatic zone reached
+    (an outcome, not a fault: outcome True), else its exit code."""
     import json
     try:
         s = json.loads((folder / "summary.json").read_text())
     except (OSError, ValueError):
-        return f"exit {code}"
-    if s.get("zone_outcome") != "limit":
-        return f"exit {code}"
+        return f"exit {code}", False
+    if code != 1 or s.get("zone_outcome") != "limit":
+        return f"exit {code}", False
     reached = {"cells": "the zone's limit", "cost": "the budget, zone.cost"}.get(
         s.get("zone_limit_reached"), "its limit")
     if "zone_conversions" in s:
         return (f"coupling cannot pay: its growing zone reached {reached} after "
-                f"{len(s['zone_conversions'])} conversions")
+                f"{len(s['zone_conversions'])} conversions"), True
     return (f"coupling cannot pay: its zone search reached {reached} after "
-            f"{len(s.get('zone_attempts', []))} attempts")
+            f"{len(s.get('zone_attempts', []))} attempts"), True
 
 
 def _spec_argv(args, seed):
