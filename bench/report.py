@@ -291,6 +291,6 @@ NOTES = """## Notes
   the sphere corrections; both scale with the number of bridging spheres. The band's spheres
   are full CPM spheres for YADE, so the band bounds the speed-up too: every scale defaults
   to one layer of 3-diameter elements around a 0.5 m box (the zone the map of
-  docs/where-coupling-pays.md found within the full model's scatter at 10 m/s, and the one
+  docs/where-coupling-pays.md finds equivalent to the full model at 10 m/s, and the one
   the grown zone starts from).
 """
