@@ -262,6 +262,7 @@ def test_a_growing_zone_counts_its_conversions_in_its_budget():
 @pytest.mark.parametrize("kwargs, message", [
     (dict(stress=0.0), r"trip_stress must be in \(0, 100\]"),
     (dict(omega=1.5), r"trip_omega must be in \(0, 1\]"),
+    (dict(band=0.0), r"trip_band must be in \(0, 1\]"),
     (dict(stress_every=0), "stress_every must be an integer >= 1"),
 ])
 def test_bad_trip_levels(kwargs, message):
@@ -412,3 +413,50 @@ def test_ahead_flags_the_cells_past_its_share_of_the_level_and_only_those_that_t
     assert column(tripped.grown(zone, grid, 1, np.ones(grid.shape, bool))) == [0, 1, 3, 4, 5]
     limit[5] = False                                  # the cells that tripped are outside
     assert tripped.grown(zone, grid, 1, limit) is None
+
+
+class BreakingBand(StretchedBlock):
+    """The unstretched block with three bridging spheres in band cells (1, 0), (0, 1), (1, 1)
+    and one sphere in the zone, each with ten initial links; at step n the sphere in (1, 0)
+    has lost n of its links (its damage n / 10, its worst link broken from step 1), the zone's
+    sphere all of them."""
+
+    class Links:
+        def __init__(self, block):
+            self.block = block
+
+        def update(self):
+            return np.array([min(self.block.n, 10) / 10, 0.0, 0.0, 1.0])
+
+        def worst_link(self):
+            return np.array([1.0 if self.block.n else 0.0, 0.0, 0.0, 1.0])
+
+    def __init__(self, zone):
+        super().__init__(zone, lambda x: 0 * x)
+        self.bridge_index = np.array([0, 1, 2])
+        self.spheres = type("Spheres", (), {"ref_pos": np.array(
+            [[0.3, 0.1, 0.1], [0.1, 0.3, 0.1], [0.3, 0.3, 0.1], [0.1, 0.1, 0.1]])})()
+        self.damage = self.Links(self)
+
+
+def test_the_band_trips_on_a_bridging_sphere_with_no_link_left_or_on_its_first_broken_link():
+    """trip_band 1: the sphere of cell (1, 0) loses its last link at step 10, the trip there
+    flags its cell alone (the zone's own sphere, all links gone, is not read); 0.5 at step 5.
+    Without trip_band the link check trips at its first broken link, step 1."""
+    grid = CellGrid(P0, P1, N)
+    zone = np.zeros(grid.shape, bool)
+    zone[0, 0] = True
+    for band, step in ((1.0, 10), (0.5, 5), (None, 1)):
+        m = BreakingBand(zone)
+        watch = Watch(m, grid, FT, TripLevels(links_every=1, band=band))
+        with pytest.raises(Tripped) as e:
+            steps(m, 0)
+        assert e.value.step == step
+        flagged = np.zeros(grid.shape, bool)
+        flagged[1, 0] = True
+        assert np.array_equal(e.value.cells, flagged)
+        if band is None:
+            assert "bridging link ω 1 ≥ 1 at 1 spheres" in e.value.indicator
+        else:
+            assert f"bridging sphere damage {band:g} ≥ {band:g} at 1 spheres" in e.value.indicator
+            assert watch.peak_band == band

@@ -10,8 +10,8 @@ from orchestrator.casefile import (DENSITY, FRACTURE_ENERGY, MODULUS, SEED, STRE
                                    spec_key as key, step_count, within)
 from orchestrator.coupling.bridging import WEIGHTINGS
 from orchestrator.coupling.correction import VARIANTS
-from orchestrator.run.autozone import (TripLevels, ahead_level, damage_level, omega_level,
-                                       stress_level)
+from orchestrator.run.autozone import (TripLevels, ahead_level, band_level, damage_level,
+                                       omega_level, stress_level)
 from cases.slab.scales import (CONCRETES, PER_SCALE, SCALES, SLAB, STEPS_SAFETY,
                                TABLE_DURATION, concrete_set, duration)
 
@@ -59,6 +59,10 @@ class SlabSpec:
     trip_omega: float = key(TripLevels.omega, number, omega_level, section="zone",
                             help="auto, grow: a bridging link with damage >= this trips (the "
                                  "coupling assumes an elastic band; 1: a broken link)")
+    trip_band: float = key(None, number, band_level, section="zone",
+                           help="auto, grow: a bridging sphere whose share of broken links "
+                                "(its damage) >= this trips, instead of trip_omega's link "
+                                "check (1: a sphere with no link left; docs/auto-zone.md)")
     trip_damage: float = key(TripLevels.damage, number, damage_level, section="zone",
                              help="auto, grow, with fe.material 'damage': an FE cell outside "
                                   "the band with damage >= this trips instead of its stress "
@@ -333,8 +337,11 @@ NEEDS = {
            "the coupled model with fe.material 'damage'")
        for k in ("fracture_energy", "compressive_fracture_energy", "trip_damage")},
     **{k: (_grown, "the coupled model with zone 'auto' or 'grow'")
-       for k in ("zone_start", "zone_limit", "fallback", "trip_omega", "stress_every",
+       for k in ("zone_start", "zone_limit", "fallback", "trip_band", "stress_every",
                  "links_every", "zone_margin", "zone_ahead", "zone_cost")},
+    "trip_omega": (lambda s, m: _grown(s, m) and s.trip_band is None,
+                   "the coupled model with zone 'auto' or 'grow' and no trip_band (which "
+                   "replaces its link check)"),
     "trip_stress": (lambda s, m: _grown(s, m) and s.fe_material == "elastic",
                     "the coupled model with zone 'auto' or 'grow' and fe.material 'elastic'"),
     "grow_shear": (lambda s, m: m == "coupled" and s.zone == "grow",

@@ -135,7 +135,7 @@ def limit_zone(spec):
 
 def levels(spec):
     return TripLevels(spec.trip_stress, spec.trip_omega, spec.trip_damage, spec.stress_every,
-                      spec.links_every, spec.zone_margin, spec.zone_ahead)
+                      spec.links_every, spec.zone_margin, spec.zone_ahead, spec.trip_band)
 
 
 def check(spec):

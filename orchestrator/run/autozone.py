@@ -30,6 +30,10 @@ def damage_level(v):
     return None if 0 < v <= 1 else "in (0, 1] (FE damage)"
 
 
+def band_level(v):
+    return None if 0 < v <= 1 else "in (0, 1] (a bridging sphere's share of broken links)"
+
+
 def ahead_level(v):
     return None if 0 < v <= 1 else "in (0, 1] (× the trip levels)"
 
@@ -56,6 +60,9 @@ class TripLevels:
     - omega: a link of a bridging sphere with damage ω ≥ omega (a broken link counts as 1).
       Default 1, a broken link: at 0.1 or 0.5 the band's partly damaged links flooded the
       zone to its limit at 10 m/s (with the damaging FE);
+    - band (None: off), instead of omega: a bridging sphere whose damage, its share of broken
+      links (broken / initial, the paper's measure), is ≥ band; 1: a sphere with no link left,
+      a piece loose in the band that the coupling would hold to the FE as a continuum;
     - stress_every, links_every: steps between the two checks (their costs: ~0.03 and ~4-6
       steps of the small coupled slab; 0.24 % and 3-6 % of the run at these defaults);
     - margin: cells added around the flagged ones (≥ 1, so the crack's front is inside);
@@ -68,10 +75,13 @@ class TripLevels:
     links_every: int = 100
     margin: int = 1
     ahead: float = 1.0
+    band: float = None
 
     def __post_init__(self):
         for name, check in (("stress", stress_level), ("omega", omega_level),
-                            ("damage", damage_level)):
+                            ("damage", damage_level), ("band", band_level)):
+            if getattr(self, name) is None and name == "band":
+                continue
             complaint = check(getattr(self, name))
             if complaint:
                 raise ValueError(f"trip_{name} must be {complaint}, got {getattr(self, name)!r}")
@@ -124,6 +134,7 @@ class Watch:
         self.band_pos = model.spheres.ref_pos[self.band]
         self.steps, self.seconds = 0, 0.0
         self.peak_stress, self.peak_omega, self.peak_damage = 0.0, 0.0, 0.0
+        self.peak_band = 0.0
         step = model.step
 
         def watched():
@@ -149,7 +160,12 @@ class Watch:
                 self.peak_stress = max(self.peak_stress, float(s1.max(initial=0.0)))
                 _trip(n, s1, self.limit, f"FE σ1 {s1.max() / 1e6:.3g} MPa ≥ {lv.stress:g} × ft "
                                          f"in {{}} cells", self.fe_centres, self.grid, lv.ahead)
-        if self.band.size and n % lv.links_every == 0:
+        if self.band.size and n % lv.links_every == 0 and lv.band is not None:
+            share = self.model.damage.update()[self.band]
+            self.peak_band = max(self.peak_band, float(share.max(initial=0.0)))
+            _trip(n, share, lv.band, f"bridging sphere damage {share.max():.3g} ≥ {lv.band:g} "
+                                     f"at {{}} spheres", self.band_pos, self.grid, lv.ahead)
+        elif self.band.size and n % lv.links_every == 0:
             worst = self.model.damage.worst_link()[self.band]
             self.peak_omega = max(self.peak_omega, float(worst.max(initial=0.0)))
             _trip(n, worst, lv.omega, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} at {{}} "

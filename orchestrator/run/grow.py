@@ -283,7 +283,7 @@ class GrowingModel:
         self.conversions, self.on_grow = [], []
         self.segments = []              # (spheres, steps) of each zone run
         self._earlier = {}              # time split of the earlier models
-        self.peaks = {"stress": 0.0, "omega": 0.0, "damage": 0.0}
+        self.peaks = {"stress": 0.0, "omega": 0.0, "damage": 0.0, "band": 0.0}
         self._bind_sensors = None       # the first model's sensors, at its first growth
         if resumed is not None:
             self._restore(resumed)
@@ -384,7 +384,7 @@ class GrowingModel:
     def _record_peaks(self):
         w = self.watch
         for key, value in (("stress", w.peak_stress), ("omega", w.peak_omega),
-                           ("damage", w.peak_damage)):
+                           ("damage", w.peak_damage), ("band", w.peak_band)):
             self.peaks[key] = max(self.peaks[key], value)
 
     # --- checkpoints (orchestrator.run.restart saves the current model's state as any
@@ -403,7 +403,8 @@ class GrowingModel:
                 "watch": {"steps": int(w.steps), "seconds": float(w.seconds),
                           "peak_stress": float(w.peak_stress),
                           "peak_omega": float(w.peak_omega),
-                          "peak_damage": float(w.peak_damage)},
+                          "peak_damage": float(w.peak_damage),
+                          "peak_band": float(w.peak_band)},
                 "sensors": None}
         arrays = {"zones": np.array(self.zones, dtype=bool)}
         if self._bind_sensors is not None:
@@ -419,10 +420,11 @@ class GrowingModel:
         info, w = resumed.info, resumed.info["watch"]
         self.conversions = list(info["conversions"])
         self.segments = [(int(a), int(b)) for a, b in info["segments"]]
-        self.peaks = {k: float(v) for k, v in info["peaks"].items()}
+        self.peaks.update({k: float(v) for k, v in info["peaks"].items()})
         self.watch.steps, self.watch.seconds = int(w["steps"]), float(w["seconds"])
         self.watch.peak_stress, self.watch.peak_omega, self.watch.peak_damage = (
             float(w["peak_stress"]), float(w["peak_omega"]), float(w["peak_damage"]))
+        self.watch.peak_band = float(w.get("peak_band", 0.0))   # absent: written before it
         if info["sensors"] is not None:
             a = resumed.arrays
             self._bind_sensors = SensorBinding(list(info["sensors"]["names"]),
