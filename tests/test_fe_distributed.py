@@ -30,6 +30,7 @@ def test_two_ranks_give_the_serial_model_to_round_off():
         assert r[key] < 1e-12, (key, r[key])
 
 
+@pytest.mark.slow
 def test_the_coupled_slab_runs_under_mpirun_as_in_serial(tmp_path):
     """`mpirun -n 2 ... slab --model coupled` (docs/mpi.md): the builder's check that every
     bridging sphere lies in an FE cell is collective, and the run gives the serial run's

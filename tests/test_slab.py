@@ -306,6 +306,7 @@ def test_auto_relaxation_is_the_1d_rule_for_the_slab_grid():
         slab.SlabSpec(scale="small", relaxation=0.0)
 
 
+@pytest.mark.slow
 def test_a_full_run_warns_when_links_outside_the_de_zone_crack(tmp_path):
     """By 0.85 ms (300 steps; 8,602 links measured) the impact's stress waves have cracked
     links where the coupled model has its band and FE (docs/slab.md): the full run says so,
