@@ -80,7 +80,7 @@ class TripLevels:
     def __post_init__(self):
         for name, check in (("stress", stress_level), ("omega", omega_level),
                             ("damage", damage_level), ("band", band_level)):
-            if getattr(self, name) is None and name == "band":
+            if name == "band" and self.band is None:        # off
                 continue
             complaint = check(getattr(self, name))
             if complaint:
@@ -160,16 +160,18 @@ class Watch:
                 self.peak_stress = max(self.peak_stress, float(s1.max(initial=0.0)))
                 _trip(n, s1, self.limit, f"FE σ1 {s1.max() / 1e6:.3g} MPa ≥ {lv.stress:g} × ft "
                                          f"in {{}} cells", self.fe_centres, self.grid, lv.ahead)
-        if self.band.size and n % lv.links_every == 0 and lv.band is not None:
-            share = self.model.damage.update()[self.band]
-            self.peak_band = max(self.peak_band, float(share.max(initial=0.0)))
-            _trip(n, share, lv.band, f"bridging sphere damage {share.max():.3g} ≥ {lv.band:g} "
-                                     f"at {{}} spheres", self.band_pos, self.grid, lv.ahead)
-        elif self.band.size and n % lv.links_every == 0:
-            worst = self.model.damage.worst_link()[self.band]
-            self.peak_omega = max(self.peak_omega, float(worst.max(initial=0.0)))
-            _trip(n, worst, lv.omega, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} at {{}} "
-                                      f"spheres", self.band_pos, self.grid, lv.ahead)
+        if self.band.size and n % lv.links_every == 0:
+            if lv.band is not None:         # the spheres' share of broken links
+                share = self.model.damage.update()[self.band]
+                self.peak_band = max(self.peak_band, float(share.max(initial=0.0)))
+                _trip(n, share, lv.band, f"bridging sphere damage {share.max():.3g} ≥ "
+                                         f"{lv.band:g} at {{}} spheres", self.band_pos,
+                      self.grid, lv.ahead)
+            else:                           # their most damaged link
+                worst = self.model.damage.worst_link()[self.band]
+                self.peak_omega = max(self.peak_omega, float(worst.max(initial=0.0)))
+                _trip(n, worst, lv.omega, f"bridging link ω {worst.max():.3g} ≥ {lv.omega:g} "
+                                          f"at {{}} spheres", self.band_pos, self.grid, lv.ahead)
 
     def _read(self, values):
         """The cells' values, 0 in the band's cells."""
