@@ -123,30 +123,22 @@ def _grown(length, h, ratio, h_max):
     return np.cumsum(sizes(0.5 * (lo_q + hi_q), n))
 
 
-def tensor_box_with_hole(xs, ys, zs, hole_lo, hole_hi, comm=MPI.COMM_WORLD, tol=1e-9):
+def tensor_box_with_hole(xs, ys, zs, hole_lo=None, hole_hi=None, comm=MPI.COMM_WORLD,
+                         tol=1e-9):
     """Hexahedral mesh of the tensor-product grid xs × ys × zs (increasing coordinates) without
     the cells inside the box [hole_lo, hole_hi], whose faces must lie on grid planes (within
-    tol × the neighbouring cell size). Built on rank 0 and distributed by dolfinx."""
+    tol × the neighbouring cell size); the whole grid without them (None). Built on rank 0
+    and distributed by dolfinx."""
     axes = [np.asarray(a, float) for a in (xs, ys, zs)]
-    lo, hi = (np.asarray(b, float).reshape(3) for b in (hole_lo, hole_hi))
     for axis, a in enumerate(axes):
         if a.ndim != 1 or a.size < 2 or np.any(np.diff(a) <= 0):
             raise ValueError(f"grid coordinates along axis {axis} must increase strictly "
                              f"(at least 2), got {a.tolist()}")
-        for name, bound in (("hole_lo", lo), ("hole_hi", hi)):
-            gap = np.abs(a - bound[axis])
-            if gap.min() > tol * np.diff(a).min():
-                raise ValueError(f"{name}[{axis}] = {bound[axis]!r} is not on a grid plane; "
-                                 f"nearest: {a[np.argmin(gap)]!r}")
-    if not np.all(hi > lo):
-        raise ValueError(f"hole_hi {hi.tolist()} must exceed hole_lo {lo.tolist()} on every axis")
     n = [a.size - 1 for a in axes]
     i, j, k = (c.ravel() for c in np.meshgrid(*[np.arange(m) for m in n], indexing="ij"))
-    mid = np.stack([0.5 * (a[c] + a[c + 1]) for a, c in zip(axes, (i, j, k))], axis=1)
-    keep = ~np.all((mid > lo) & (mid < hi), axis=1)
-    if not keep.any():
-        raise ValueError(f"the hole [{lo.tolist()}, {hi.tolist()}] removes every cell of the grid")
-    i, j, k = i[keep], j[keep], k[keep]
+    if hole_lo is not None or hole_hi is not None:
+        keep = _outside(axes, (i, j, k), hole_lo, hole_hi, tol)
+        i, j, k = i[keep], j[keep], k[keep]
     node = lambda a, b, c: (i + a) + (n[0] + 1) * ((j + b) + (n[1] + 1) * (k + c))
     # dolfinx's hexahedron: vertices in lexicographic order, x fastest
     cells = np.stack([node(a, b, c) for c in (0, 1) for b in (0, 1) for a in (0, 1)], axis=1)
@@ -154,6 +146,24 @@ def tensor_box_with_hole(xs, ys, zs, hole_lo, hole_hi, comm=MPI.COMM_WORLD, tol=
     ijk = np.unravel_index(used, (n[2] + 1, n[1] + 1, n[0] + 1))[::-1]  # x fastest
     points = np.stack([a[c] for a, c in zip(axes, ijk)], axis=1)
     return _linear_mesh(comm, inverse.reshape(cells.shape).astype(np.int64), points, "hexahedron")
+
+
+def _outside(axes, ijk, hole_lo, hole_hi, tol):
+    """Mask of the grid cells `ijk` outside the hole [hole_lo, hole_hi], checked on the grid."""
+    lo, hi = (np.asarray(b, float).reshape(3) for b in (hole_lo, hole_hi))
+    for axis, a in enumerate(axes):
+        for name, bound in (("hole_lo", lo), ("hole_hi", hi)):
+            gap = np.abs(a - bound[axis])
+            if gap.min() > tol * np.diff(a).min():
+                raise ValueError(f"{name}[{axis}] = {bound[axis]!r} is not on a grid plane; "
+                                 f"nearest: {a[np.argmin(gap)]!r}")
+    if not np.all(hi > lo):
+        raise ValueError(f"hole_hi {hi.tolist()} must exceed hole_lo {lo.tolist()} on every axis")
+    mid = np.stack([0.5 * (a[c] + a[c + 1]) for a, c in zip(axes, ijk)], axis=1)
+    keep = ~np.all((mid > lo) & (mid < hi), axis=1)
+    if not keep.any():
+        raise ValueError(f"the hole [{lo.tolist()}, {hi.tolist()}] removes every cell of the grid")
+    return keep
 
 
 def _linear_mesh(comm, cells, points, cell_name):

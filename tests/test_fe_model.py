@@ -130,6 +130,38 @@ def test_normal_only_dirichlet_faces():
     assert m.t == pytest.approx(50 * dt, rel=1e-14)
 
 
+def test_held_nodes_of_an_inner_plane_cut_the_load_path():
+    """A box of two halves, its nodes on the inner plane x = 0.6 held in every component: a
+    uniform body force on the right half alone moves no node of the left half (exactly, to
+    round-off), and dynamics keeps the held nodes still. Held on its end planes instead, it is
+    the model held by Dirichlet faces there, dof for dof."""
+    from cases.slab.bending import _static_solve
+    from fenicsx_side.mesh import tensor_box_with_hole
+    xs, ys, zs = np.linspace(0, 1.2, 7), np.linspace(0, 1.0, 6), np.linspace(0, 0.4, 3)
+    m = ElasticModel(tensor_box_with_hole(xs, ys, zs), E, NU, RHO)
+    x = m.nodes[:, 0]
+    m.hold(np.isclose(x, 0.6), (0, 1, 2))
+    f = np.where(np.repeat(x > 0.6 + 1e-9, 3), np.tile([0.0, 1.0, -3.0], len(x)), 0.0) * m.mass
+    free = np.flatnonzero(~m.fixed)
+    u = np.zeros(m.ndof)
+    u[free] = _static_solve(m.K, free, f[free])
+    u = u.reshape(-1, 3)
+    assert np.abs(u[x < 0.6 + 1e-9]).max() < 1e-12 * np.abs(u).max()
+    assert np.all(np.abs(u[x > 0.6 + 1e-9, 2]) > 0)
+    m.f_ext = f
+    for _ in range(20):
+        m.predict(0.5 * m.critical_dt())
+    assert np.all(m.u[m.fixed] == 0) and np.all(m.v[m.fixed] == 0)
+    ends = ElasticModel(tensor_box_with_hole(xs, ys, zs), E, NU, RHO)
+    ends.hold(np.isclose(x, 0.0) | np.isclose(x, 1.2), (2,))
+    faces = ElasticModel(box_mesh(P0, P1, N), E, NU, RHO,
+                         dirichlet=[(face(0, 0.0), (2,)), (face(0, 1.2), (2,))])
+    assert np.array_equal(ends.nodes, faces.nodes)
+    assert np.array_equal(ends.fixed, faces.fixed)
+    with pytest.raises(ValueError, match="component 3"):
+        ends.hold([0], (3,))
+
+
 def test_bad_dirichlet_is_named():
     msh = box_mesh(P0, P1, N)
     with pytest.raises(ValueError, match="condition 1: its locator matches no boundary facet"):

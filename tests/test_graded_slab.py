@@ -42,6 +42,22 @@ def test_graded_grid_band_cells_growth_and_planes():
     assert xs[0] == 0.0 and xs[-1] == SLAB[0]
 
 
+def test_graded_band_fits_by_its_own_cells_not_the_grid_s():
+    """Small scale, the 0.5 m box: y holds 12 cells of 1/6 m, the zone 4 (centred), 4 on each
+    side of it. Four layers of 1/6 m and one FE cell do not fit in those 2/3 m; four layers of
+    1.5 × 0.05 = 0.075 m (0.3 m) and one more do: their planes, then cells growing to ≤ h."""
+    with pytest.raises(ValueError, match="do not fit"):
+        slab_grid(SlabSpec(scale="small", layers=4))
+    g = slab_grid(SlabSpec(scale="small", layers=4, band_ratio=1.5))
+    assert g.band_h == pytest.approx(0.075, rel=1e-15) and g.hole_lo[1] == pytest.approx(4 / 6)
+    ys = fe_axes(g)[1]
+    for k in range(5):
+        assert np.abs(ys - (g.hole_lo[1] - 0.075 * k)).min() < 1e-12
+    assert ys[0] == 0.0 and np.diff(ys).max() <= g.h * (1 + 1e-12)
+    with pytest.raises(ValueError, match="do not fit"):     # 8 layers and one: 0.675 m
+        slab_grid(SlabSpec(scale="small", layers=8, band_ratio=1.5))
+
+
 def test_graded_fe_part_is_the_slab_less_the_zone_and_its_nodes_the_grid(models):
     m = models[2.0]
     g = m.grid

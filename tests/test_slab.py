@@ -224,6 +224,17 @@ def test_patches_are_the_bottom_spheres_within_the_radius():
         patch_points(centres[:5], r)
 
 
+def test_support_line_is_the_mean_distance_of_the_held_centres_from_their_face():
+    """Held: centres within two radii of x = 0 or x = 2.5 (0.03, 0.04 and 2.47 m here, not
+    0.06 or 1.0 m): 0.03, 0.04 and 0.03 m from their face."""
+    from cases.slab.packings import support_line, supported
+    c = np.zeros((5, 3))
+    c[:, 0] = [0.03, 0.04, 2.47, 0.06, 1.0]
+    r = np.full(5, 0.025)
+    assert supported(c, r).tolist() == [True, True, True, False, False]
+    assert support_line(c, r) == pytest.approx(0.1 / 3, rel=1e-14)
+
+
 def test_grid_rejects_a_de_zone_that_does_not_fit():
     with pytest.raises(ValueError, match="do not fit"):
         slab.slab_grid(slab.SlabSpec(scale="small", de_zone=1.8))

@@ -4,12 +4,16 @@ A strip of the slab's own packing (0.3 m wide along y, the whole span and thickn
 quasi-statically in 3-point bending: supports as in the full model (spheres within 2 R of the
 x = 0 and x = 2.5 faces held in z), a force P spread over the top spheres of a 0.3 m patch at
 mid-span, links kept undamaged (CpmPhys.neverDamage), Cundall damping until the mid-span
-deflection settles. The same strip in FE on the scale's grid (same supports, the same point
-forces through the coupling operator k) gives the deflection of a 31 GPa continuum; the FE is
-linear, so E_eff = 31 GPa × w_FE / w_DE is the FE modulus that bends like the spheres
+deflection settles. The same strip in FE on the scale's grid (held in z on its end faces, as
+the coupled model is; the same point forces through the coupling operator k) gives the
+deflection of a 31 GPa continuum; the FE is linear, so E_eff = 31 GPa × w_FE / w_DE is the FE
+modulus that bends like the spheres
 (cases/slab/scales.py SCALES, docs/slab.md). With `--plate`, the whole slab is loaded on the
 impactor's 0.3 m square patch and E_eff is read at each bottom patch of the quantities of
 interest (x = 0.75, 1.25, 1.75 m): the modulus the slab itself shows, free sides and all.
+Each is also given with the FE held on the full model's support line instead (the mean
+distance of its held spheres' centres from their end face, 1.4-1.6 R): what the supports'
+mismatch puts into E_eff (`E_eff_supports_on_line_Pa`).
 
 The same strip is also loaded to failure, in spheres and in the FE damage law
 (`bending_to_failure_de`, `bending_to_failure_fe`: the FE twin, cases/slab/twin.py): the patch
@@ -22,6 +26,7 @@ import json
 import numpy as np
 
 from cases import slab
+from cases.slab.packings import support_line, supported
 from cases.slab.quantities import CENTRE, patch_points
 
 CENTRE_X = float(CENTRE.split("_x")[1])
@@ -45,7 +50,8 @@ def plate_deflections(spec, load, tol=2e-4, chunk=500, max_chunks=80):
     """The whole slab under the impactor's patch (a 0.3 m square of top spheres at the
     centre), quasi-statically: the mean z deflection of each bottom patch of the quantities
     of interest at PLATE_GAUGES, in spheres and in FE (REFERENCE_E, the scale's grid, the same
-    supports and point forces), and the sphere count."""
+    point forces; {where the FE is held: its deflections}, _fe_boxes), and the sphere
+    count."""
     from yade_side.bulk import BodySet
     packs = slab.make_packings(spec)
     c, r = packs.slab_centres, packs.slab_radii
@@ -53,8 +59,8 @@ def plate_deflections(spec, load, tol=2e-4, chunk=500, max_chunks=80):
     top = (np.abs(c[:, :2] - centre) < 0.5 * PATCH).all(axis=1) & (c[:, 2] > slab.SLAB[2] - 2 * r)
     patches = patch_points(c, spec.radius)
     gauges = [patches[x] for x in PLATE_GAUGES]
-    fe = _fe_box(spec, 0.0, slab.SLAB[1])
-    w_fe = [static_point_deflection(fe, c[top], load, c[g]) for g in gauges]
+    w_fe = {where: [static_point_deflection(fe, c[top], load, c[g]) for g in gauges]
+            for where, fe in _fe_boxes(spec, 0.0, slab.SLAB[1], c, r).items()}
     ids = _loaded(spec, packs, c, r, top, load)
     sets = [BodySet(ids[g]) for g in gauges]          # their displacements from here
     settled_deflection(sets[PLATE_GAUGES.index(CENTRE_X)], tol, chunk, max_chunks)
@@ -81,7 +87,7 @@ def _loaded(spec, packs, c, r, top, load):
     for i in O.interactions:
         i.phys.neverDamage = True
     newton.damping = 0.5
-    block_dofs(ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)], "z")
+    block_dofs(ids[supported(c, r)], "z")
     for i in ids[top]:
         O.forces.setPermF(int(i), (0, 0, -load / top.sum()))
     return ids
@@ -103,25 +109,40 @@ def settled_deflection(gauge, tol=2e-4, chunk=500, max_chunks=60):
     raise RuntimeError(f"DE deflection did not settle within {max_chunks * chunk} steps")
 
 
-def fe_deflection(spec, load):
-    """The same strip, loads and gauge in FE (REFERENCE_E) on the scale's grid, solved statically."""
+def fe_deflection(spec, load, where="faces"):
+    """The same strip, loads and gauge in FE (REFERENCE_E) on the scale's grid, solved
+    statically, held in z `where` (_fe_boxes)."""
     y0 = 0.5 * (slab.SLAB[1] - STRIP)
-    fe = _fe_box(spec, y0, y0 + STRIP)
     packs = slab.make_packings(spec)
     c, r = _strip(packs.slab_centres, packs.slab_radii)
+    fe = _fe_boxes(spec, y0, y0 + STRIP, c, r, (where,))[where]
     return static_point_deflection(fe, c[_top(c, r)], load, c[_gauge(c)])
 
 
-def _fe_box(spec, y0, y1):
-    """The elastic FE slab (REFERENCE_E) between y0 and y1 on the scale's grid, held in z on
-    its end faces."""
-    from fenicsx_side.mesh import box_mesh
-    from fenicsx_side.model import ElasticModel, face
+SUPPORTS = ("faces", "line")
+
+
+def _fe_boxes(spec, y0, y1, c, r, supports=SUPPORTS):
+    """{where: the elastic FE slab (REFERENCE_E) between y0 and y1 on the scale's grid, held
+    in z there}: "faces", its end faces (the coupled model's supports); "line", the planes at
+    the full model's support line from each end (packings.support_line of the spheres c, r),
+    the grid's planes and those two."""
+    from fenicsx_side.mesh import tensor_box_with_hole
+    from fenicsx_side.model import ElasticModel
     grid = slab.slab_grid(spec)
-    n = [grid.n[0], max(1, round((y1 - y0) / grid.h)), grid.n[2]]
-    return ElasticModel(box_mesh((0, y0, 0), (slab.SLAB[0], y1, slab.SLAB[2]), n),
-                        REFERENCE_E, spec.poisson, spec.density,
-                        [(face(0, 0.0), (2,)), (face(0, slab.SLAB[0]), (2,))])
+    length = slab.SLAB[0]
+    ys = np.linspace(y0, y1, max(1, round((y1 - y0) / grid.h)) + 1)
+    zs = np.linspace(0.0, slab.SLAB[2], grid.n[2] + 1)
+    out = {}
+    for where in supports:
+        s = 0.0 if where == "faces" else support_line(c, r)
+        xs = np.unique(np.r_[np.linspace(0.0, length, grid.n[0] + 1), s, length - s])
+        fe = ElasticModel(tensor_box_with_hole(xs, ys, zs), REFERENCE_E, spec.poisson,
+                          spec.density)
+        x = fe.nodes[:, 0]
+        fe.hold((np.abs(x - s) < 1e-9) | (np.abs(x - (length - s)) < 1e-9), (2,))
+        out[where] = fe
+    return out
 
 
 def static_point_deflection(fe, points, load, gauges):
@@ -156,7 +177,7 @@ def bending_to_failure_de(spec, speed, end, samples=400, loading=None):
     _, newton = cpm_engines(dt_safety=loading.dt_safety, shear_release=loading.shear_release)
     create_cohesive_links()
     newton.damping = loading.damping
-    block_dofs(ids[(c[:, 0] < 2 * r) | (c[:, 0] > slab.SLAB[0] - 2 * r)], "z")
+    block_dofs(ids[supported(c, r)], "z")
     patch = [int(i) for i in ids[_top(c, r)]]
     block_dofs(patch, "z")
     for i in patch:
@@ -291,18 +312,25 @@ def main(argv=None):
                           "left_at_full_damage": left}))
         return
     spec = slab.SlabSpec(scale=a.scale)
+    packs = slab.make_packings(spec)
     if a.plate:
+        line = support_line(packs.slab_centres, packs.slab_radii)
         w_de, w_fe, spheres = plate_deflections(spec, a.load)
         print(json.dumps({"scale": a.scale, "radius": spec.radius, "spheres": spheres,
                           "load_N": a.load, "x_m": PLATE_GAUGES, "deflection_de_m": w_de,
-                          "deflection_fe_31GPa_m": w_fe,
-                          "E_eff_Pa": [REFERENCE_E * f / d for f, d in zip(w_fe, w_de)]}))
+                          "deflection_fe_31GPa_m": w_fe["faces"],
+                          "E_eff_Pa": [REFERENCE_E * f / d for f, d in zip(w_fe["faces"], w_de)],
+                          "support_line_m": line,
+                          "E_eff_supports_on_line_Pa": [REFERENCE_E * f / d for f, d
+                                                        in zip(w_fe["line"], w_de)]}))
         return
-    w_fe = fe_deflection(spec, a.load)
+    line = support_line(*_strip(packs.slab_centres, packs.slab_radii))
+    w_fe = {where: fe_deflection(spec, a.load, where) for where in SUPPORTS}
     w_de, spheres = de_deflection(spec, a.load)
     print(json.dumps({"scale": a.scale, "radius": spec.radius, "spheres": spheres, "load_N": a.load,
-                      "deflection_de_m": w_de, "deflection_fe_31GPa_m": w_fe,
-                      "E_eff_Pa": REFERENCE_E * w_fe / w_de}))
+                      "deflection_de_m": w_de, "deflection_fe_31GPa_m": w_fe["faces"],
+                      "E_eff_Pa": REFERENCE_E * w_fe["faces"] / w_de, "support_line_m": line,
+                      "E_eff_supports_on_line_Pa": REFERENCE_E * w_fe["line"] / w_de}))
 
 
 if __name__ == "__main__":

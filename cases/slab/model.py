@@ -12,7 +12,7 @@ from time import perf_counter
 
 import numpy as np
 
-from cases.slab.packings import make_packings
+from cases.slab.packings import make_packings, supported
 from cases.slab.reinforced import YIELD_EVERY
 from cases.slab.scales import SLAB
 from cases.slab.zone import fe_axes, model_grid, sensor_points, slab_bridging
@@ -105,8 +105,7 @@ class SlabScene:
         self.support_ids = np.empty(0, int)
         if keep is None:        # simple supports: spheres touching x = 0 and x = 2.5 hold z
             from yade_side.scene import block_dofs
-            c, r = p.slab_centres, p.slab_radii
-            self.support_ids = self.slab_ids[(c[:, 0] < 2 * r) | (c[:, 0] > SLAB[0] - 2 * r)]
+            self.support_ids = self.slab_ids[supported(p.slab_centres, p.slab_radii)]
             block_dofs(self.support_ids, "z")
         if self.spec.reinforced:
             from yade_side.bars import shield_bars

@@ -16,6 +16,19 @@ class Packings:
     impactor_drop: float  # lowered by this once the cohesive links are made: spec.impactor_gap
 
 
+def supported(c, r):
+    """Mask of the slab's spheres (centres c, radii r) the full model holds in z: those within
+    two radii of the x = 0 and x = 2.5 faces (simple supports)."""
+    return (c[:, 0] < 2 * r) | (c[:, 0] > SLAB[0] - 2 * r)
+
+
+def support_line(c, r):
+    """Where the full model's supports act: the mean distance of its held spheres' centres
+    from their end face (m)."""
+    held = supported(c, r)
+    return float(np.minimum(c[held, 0], SLAB[0] - c[held, 0]).mean())
+
+
 def make_packings(spec):
     """The slab's and the impactor's spheres. The impactor sits 1.05 × beyond the reach of the
     cohesive links made in the first step (1.5 × the sum of radii: no link joins it to the

@@ -66,20 +66,22 @@ def slab_grid(spec):
          max(1, round(SLAB[2] / (spec.fe_ratio_thickness * 2 * spec.radius)))]
     lo, hi = np.zeros(3), np.array(SLAB)
     axes = (0,) if spec.full_width else (0, 1)
+    h_band = h if spec.band_ratio is None else spec.band_ratio * 2 * spec.radius
     for axis in axes:
         cells = max(1, round(spec.de_zone / h))
         if (n[axis] - cells) % 2:  # centred on the slab
             cells += 1
         start = (n[axis] - cells) // 2
-        if start < spec.layers + 1:
+        # the band's layers and at least one FE cell of the band's size beyond them
+        if start * h < (spec.layers + 1) * h_band * (1 - 1e-9):
             raise ValueError(f"slab: a DE zone of {cells} cells and {spec.layers} bridging "
-                             f"layers do not fit in the {n[axis]} cells along axis {axis} with "
-                             f"FE beyond them; reduce de_zone or layers, or the sphere radius")
+                             f"layers of {h_band:.4g} m do not fit in the {n[axis]} cells of "
+                             f"{h:.4g} m along axis {axis} with FE beyond them; reduce de_zone "
+                             f"or layers, or the sphere radius")
         lo[axis], hi[axis] = start * h, (start + cells) * h
     if spec.band_ratio is None:
         return Grid(h, tuple(n), lo, hi, axes)
-    return Grid(h, tuple(n), lo, hi, axes, h_band=spec.band_ratio * 2 * spec.radius,
-                layers=spec.layers)
+    return Grid(h, tuple(n), lo, hi, axes, h_band=h_band, layers=spec.layers)
 
 
 def cell_grid(grid):
