@@ -294,6 +294,9 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scale", choices=tuple(slab.SCALES), default="small")
     p.add_argument("--load", type=float, default=2e4, help="total force P (N), elastic range")
+    p.add_argument("--fe-ratio", type=float, default=None,
+                   help="the FE grid's in-plane cell size / sphere diameter (default: the "
+                        "slab's): E_eff is the modulus of that grid")
     p.add_argument("--plate", action="store_true",
                    help="the whole slab under the impactor's 0.3 m patch instead of the strip: "
                         "E_eff at each bottom patch of the quantities of interest")
@@ -311,7 +314,11 @@ def main(argv=None):
         print(json.dumps({"scale": a.scale, "higher_order_share": share,
                           "left_at_full_damage": left}))
         return
-    spec = slab.SlabSpec(scale=a.scale)
+    try:
+        spec = slab.SlabSpec(scale=a.scale, **({} if a.fe_ratio is None
+                                               else {"fe_ratio": a.fe_ratio}))
+    except ValueError as e:
+        p.error(str(e))
     packs = slab.make_packings(spec)
     if a.plate:
         line = support_line(packs.slab_centres, packs.slab_radii)
