@@ -147,14 +147,16 @@ class ElasticModel:
 
     def hold(self, nodes, components):
         """Hold `components` (of 0, 1, 2) of the owned `nodes` (indices or a mask over
-        `nodes`) at zero, besides the Dirichlet facets: e.g. the nodes of a plane inside the
-        mesh, which no boundary locator reaches."""
+        `nodes`) at zero from now on (their displacement and velocity set to zero), besides
+        the Dirichlet facets: e.g. the nodes of a plane inside the mesh, which no boundary
+        locator reaches."""
         bad = [c for c in components if c not in (0, 1, 2)]
         if bad:
             raise ValueError(f"hold: component {bad[0]!r} not in (0, 1, 2)")
         index = np.arange(len(self.nodes))[nodes]
         for c in components:
             self.fixed[3 * index + c] = True
+        self._u[self.fixed] = self._v[self.fixed] = 0.0
         self._inv_mass_free = np.where(self.fixed, 0.0, 1.0 / self.mass)
 
     def add_stiffness_and_mass(self, stiffness, mass, member=None):
