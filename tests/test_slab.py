@@ -376,3 +376,18 @@ def test_the_default_window_is_the_impact_s_measured_duration():
     assert duration("medium", 40) == TABLE_DURATION
     spec = slab.SlabSpec(scale="small", impactor_speed=10)
     assert spec.steps == int(np.ceil(round(4950 * measured[10] / TABLE_DURATION * 0.15 / 0.3, 6)))
+
+
+def test_the_strength_that_matches_a_peak_is_found_on_an_increasing_curve():
+    """Secant steps find the root of an affine peak in one step after the two first probes
+    (exact), and of a curved one (peak = 10 x^0.8) within the tolerance, bracketed."""
+    from cases.slab.bending import increasing_root
+    x, tried = increasing_root(lambda x: 3.0 * x + 10.0, 1.0, 19.0, 1e-12)
+    assert x == pytest.approx(3.0, rel=1e-12) and len(tried) == 3
+    x, tried = increasing_root(lambda x: 10.0 * x ** 0.8, 1.0, 20.0, 1e-4)
+    assert 10.0 * x ** 0.8 == pytest.approx(20.0, rel=1e-4)
+    assert x == pytest.approx(2.0 ** 1.25, rel=2e-4)
+    with pytest.raises(ValueError, match="must be > 0"):
+        increasing_root(lambda x: x, 1.0, 0.0, 1e-3)
+    with pytest.raises(RuntimeError, match="does not grow"):
+        increasing_root(lambda x: 5.0, 1.0, 7.0, 1e-3)

@@ -220,6 +220,49 @@ def bending_to_failure_fe(spec, law, speed, end, samples=400):
     return np.array(travel), np.array(force), m.dissipated, n
 
 
+def strength_for_peak(spec, peak, speed, end, tol=0.005):
+    """The FE damage law's tensile strength at which the FE strip bent to failure
+    (bending_to_failure_fe at `speed` to a travel `end`) peaks at the force `peak` (N): e.g.
+    the spheres' strip's, from the twin (cases/slab/twin.py). Returns (strength (Pa), the
+    [strength, peak] pairs tried)."""
+    from fenicsx_side.damage_law import ConcreteDamage
+    law = spec.damage_law()
+
+    def fe_peak(strength):
+        curve = bending_to_failure_fe(spec, ConcreteDamage(**dict(law, tensile_strength=strength)),
+                                      speed, end)[1]
+        return float(curve.max())
+    return increasing_root(fe_peak, law["tensile_strength"], peak, tol)
+
+
+def increasing_root(f, x0, target, tol, step=0.1, max_iter=12):
+    """x with f(x) within tol × target of `target`, f increasing: secant steps from x0 and
+    (1 + step) x0, halving the bracket instead where a step would leave it. Returns (x,
+    [[x, f(x)] tried])."""
+    if not target > 0:
+        raise ValueError(f"the peak to match must be > 0, got {target!r}")
+    tried = []
+
+    def probe(x):
+        tried.append([x, f(x)])
+        return tried[-1][1]
+    a, fa = x0, probe(x0)
+    b, fb = (1 + step) * x0, probe((1 + step) * x0)
+    for _ in range(max_iter):
+        if abs(fb - target) <= tol * target:
+            return b, tried
+        if not fb > fa:
+            raise RuntimeError(f"the peak does not grow with the strength: tried {tried}")
+        x = b + (target - fb) * (b - a) / (fb - fa)
+        lo = max((x for x, v in tried if v < target), default=None)
+        hi = min((x for x, v in tried if v > target), default=None)
+        if lo is not None and hi is not None and not lo < x < hi:
+            x = 0.5 * (lo + hi)
+        a, fa, b, fb = b, fb, x, probe(x)
+    raise RuntimeError(f"no strength within {tol:.1%} of the peak {target:.4g} in {max_iter} "
+                       f"steps: tried {tried}")
+
+
 def higher_order_share(spec, law):
     """The share of the FE strip's bending energy (its static deflection under the patch) that
     its cells' higher-order stiffness carries (K_c less the one-point part: what the damage
@@ -294,6 +337,10 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scale", choices=tuple(slab.SCALES), default="small")
     p.add_argument("--load", type=float, default=2e4, help="total force P (N), elastic range")
+    p.add_argument("--fe-strength-for-peak", type=float, default=None, metavar="N",
+                   help="only the FE damage law's tensile strength at which the FE strip bent "
+                        "to failure (the twin's test) peaks at N newtons, e.g. the spheres' "
+                        "strip's peak that `calibrate --fe-twin` prints")
     p.add_argument("--fe-ratio", type=float, default=None,
                    help="the FE grid's in-plane cell size / sphere diameter (default: the "
                         "slab's): E_eff is the modulus of that grid")
@@ -319,6 +366,17 @@ def main(argv=None):
                                                else {"fe_ratio": a.fe_ratio}))
     except ValueError as e:
         p.error(str(e))
+    if a.fe_strength_for_peak is not None:
+        from cases.slab.twin import BEND_END, BEND_SPEED
+        if not a.fe_strength_for_peak > 0:
+            p.error(f"--fe-strength-for-peak must be > 0 newtons, got {a.fe_strength_for_peak!r}")
+        spec = slab.SlabSpec(scale=spec.scale, fe_ratio=spec.fe_ratio, fe_material="damage")
+        strength, tried = strength_for_peak(spec, a.fe_strength_for_peak, BEND_SPEED, BEND_END)
+        print(json.dumps({"scale": a.scale, "peak_N": a.fe_strength_for_peak,
+                          "tensile_strength_Pa": strength,
+                          "over_the_spheres_ft": strength / spec.tensile_strength,
+                          "tried": tried}))
+        return
     packs = slab.make_packings(spec)
     if a.plate:
         line = support_line(packs.slab_centres, packs.slab_radii)
