@@ -33,8 +33,6 @@ NOTCH = 0.1          # the separation test's notch on each cut side, × the widt
 RATE_SPEEDUP = 10.0  # FE loading rate over the spheres' (quasi-static: its transit time is
                      # ~0.2 ms against ≥ 20 ms of loading)
 CYCLE = (3.0, -0.5, 6.0)  # the cycle's targets: × the tension peak's strain, × fc / E, × it
-BEND_SPEED = 0.02    # m/s, the bending patch's (12 periods of the strip's first mode to 4 mm)
-BEND_END = 6e-3      # m, its travel: the small strip's force falls to ~40 % of its peak
 
 
 @dataclass
@@ -193,7 +191,7 @@ def twin(spec, record, cycle=None, bending=None, rate_speedup=RATE_SPEEDUP):
         out["cyclic"] = (fe, judge_cycle(cycle["strain"], cycle["stress"], fe,
                                          cycle["targets"]))
     if bending is not None:
-        from cases.slab.bending import bending_to_failure_fe
+        from cases.slab.bending import BEND_SPEED, bending_to_failure_fe
         travel, force = bending
         t, f, dissipated, cells = bending_to_failure_fe(spec, law, BEND_SPEED, travel[-1])
         fe = TwinRun("bending", t, f, dissipated, cells, grid.h)

@@ -184,9 +184,8 @@ def run_twin(args):
     cycle = twin.spheres_cycle(record)
     bending = None
     if not args.no_bending:
-        from cases.slab.bending import bending_to_failure_de
-        travel, force, spheres, seconds = bending_to_failure_de(spec, twin.BEND_SPEED,
-                                                                twin.BEND_END)
+        from cases.slab.bending import BEND_END, BEND_SPEED, bending_to_failure_de
+        travel, force, spheres, seconds = bending_to_failure_de(spec, BEND_SPEED, BEND_END)
         bending = (travel, force)
         print(f"bending strip: {spheres} spheres, {seconds:.0f} s")
     result = twin.twin(spec, record, cycle, bending)
