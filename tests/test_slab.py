@@ -380,13 +380,17 @@ def test_the_default_window_is_the_impact_s_measured_duration():
 
 def test_the_strength_that_matches_a_peak_is_found_on_an_increasing_curve():
     """Secant steps find the root of an affine peak in one step after the two first probes
-    (exact), and of a curved one (peak = 10 x^0.8) within the tolerance, bracketed."""
+    (exact), and of a curved one (peak = 10 x^0.8) within the tolerance from below and from
+    above; a first guess that matches is kept."""
     from cases.slab.bending import increasing_root
     x, tried = increasing_root(lambda x: 3.0 * x + 10.0, 1.0, 19.0, 1e-12)
     assert x == pytest.approx(3.0, rel=1e-12) and len(tried) == 3
     x, tried = increasing_root(lambda x: 10.0 * x ** 0.8, 1.0, 20.0, 1e-4)
     assert 10.0 * x ** 0.8 == pytest.approx(20.0, rel=1e-4)
     assert x == pytest.approx(2.0 ** 1.25, rel=2e-4)
+    x, tried = increasing_root(lambda x: 10.0 * x ** 0.8, 1.0, 5.0, 1e-4)   # from above
+    assert x == pytest.approx(0.5 ** 1.25, rel=2e-4)
+    assert increasing_root(lambda x: 2.0 * x, 3.0, 6.0, 1e-9) == (3.0, [[3.0, 6.0]])
     with pytest.raises(ValueError, match="must be > 0"):
         increasing_root(lambda x: x, 1.0, 0.0, 1e-3)
     with pytest.raises(RuntimeError, match="does not grow"):

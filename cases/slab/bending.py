@@ -250,15 +250,17 @@ def increasing_root(f, x0, target, tol, step=0.1, max_iter=12):
         tried.append([x, f(x)])
         return tried[-1][1]
     a, fa = x0, probe(x0)
+    if abs(fa - target) <= tol * target:
+        return a, tried
     b, fb = (1 + step) * x0, probe((1 + step) * x0)
     for _ in range(max_iter):
         if abs(fb - target) <= tol * target:
             return b, tried
-        if not fb > fa:
+        if not (fb - fa) * (b - a) > 0:
             raise RuntimeError(f"the peak does not grow with the strength: tried {tried}")
         x = b + (target - fb) * (b - a) / (fb - fa)
-        lo = max((x for x, v in tried if v < target), default=None)
-        hi = min((x for x, v in tried if v > target), default=None)
+        lo = max((p for p, v in tried if v < target), default=None)
+        hi = min((p for p, v in tried if v > target), default=None)
         if lo is not None and hi is not None and not lo < x < hi:
             x = 0.5 * (lo + hi)
         a, fa, b, fb = b, fb, x, probe(x)
