@@ -4,25 +4,18 @@ Each module of `cli.commands` is one subcommand: it defines `NAME`, `HELP`,
 `configure(parser)` and `run(args) -> int`. Modules import the solvers inside `run`
 only, so that `--help` stays fast.
 """
-import argparse
 import sys
 import importlib
 import pkgutil
 
 from cli import commands
+from common.arguments import Parser
 
 
 def _command_modules():
     for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
         if not info.name.startswith("_"):
             yield importlib.import_module(f"{commands.__name__}.{info.name}")
-
-
-class Parser(argparse.ArgumentParser):
-    """Command-line mistakes in one line, like every other bad input (exit code 2)."""
-
-    def error(self, message):
-        self.exit(2, f"error: {self.prog}: {message} (see --help)\n")
 
 
 def build_parser():

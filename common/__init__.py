@@ -1,1 +1,2 @@
-"""What every layer of the project may use: the one file writer."""
+"""What every layer of the project may use: the one file writer, the HTML page and the
+command lines' parser."""

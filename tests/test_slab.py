@@ -395,3 +395,16 @@ def test_the_strength_that_matches_a_peak_is_found_on_an_increasing_curve():
         increasing_root(lambda x: x, 1.0, 0.0, 1e-3)
     with pytest.raises(RuntimeError, match="does not grow"):
         increasing_root(lambda x: 5.0, 1.0, 7.0, 1e-3)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--fe-ratio", "-1"], "slab: fe_ratio must be in (0, 20], got -1.0"),
+    (["--fe-strength-for-peak", "0"], "--fe-strength-for-peak must be > 0 newtons, got 0.0"),
+    (["--fe-ratio", "x"], "argument --fe-ratio: invalid float value: 'x'"),
+])
+def test_the_bending_tool_refuses_a_bad_value_in_one_line(capsys, args, message):
+    from cases.slab.bending import main as bending
+    with pytest.raises(SystemExit) as e:
+        bending(args)
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and message in err and len(err.strip().splitlines()) == 1

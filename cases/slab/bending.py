@@ -20,14 +20,15 @@ The same strip is also loaded to failure, in spheres and in the FE damage law
 is pushed down at a constant speed (its spheres' z, or its top nodes' z, driven), links and
 cells damage, and the force on the patch is recorded against its travel.
 """
-import argparse
 import json
+from dataclasses import replace
 
 import numpy as np
 
 from cases import slab
 from cases.slab.packings import support_line, supported
 from cases.slab.quantities import CENTRE, patch_points
+from common.arguments import Parser
 
 CENTRE_X = float(CENTRE.split("_x")[1])
 
@@ -339,7 +340,7 @@ def _gauge(c):
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = Parser(prog="python3 -m cases.slab.bending", description=__doc__.splitlines()[0])
     p.add_argument("--scale", choices=tuple(slab.SCALES), default="small")
     p.add_argument("--load", type=float, default=2e4, help="total force P (N), elastic range")
     p.add_argument("--fe-strength-for-peak", type=float, default=None, metavar="N",
@@ -374,7 +375,7 @@ def main(argv=None):
     if a.fe_strength_for_peak is not None:
         if not a.fe_strength_for_peak > 0:
             p.error(f"--fe-strength-for-peak must be > 0 newtons, got {a.fe_strength_for_peak!r}")
-        spec = slab.SlabSpec(scale=spec.scale, fe_ratio=spec.fe_ratio, fe_material="damage")
+        spec = replace(spec, fe_material="damage")
         strength, tried = strength_for_peak(spec, a.fe_strength_for_peak, BEND_SPEED, BEND_END)
         print(json.dumps({"scale": a.scale, "peak_N": a.fe_strength_for_peak,
                           "tensile_strength_Pa": strength,
