@@ -271,15 +271,16 @@ class ElasticModel:
         w = 1.0 if weights is None else weights
         return self.comm.allreduce(0.5 * float(np.sum(w * self.mass * self._v ** 2)))
 
-    def strain_energy(self, weights=None):
-        """½ Σ w u (K u) at time t; weights per dof (default 1)."""
+    def strain_energy(self, weights=None, members=True):
+        """½ Σ w u (K u) at time t; weights per dof (default 1); and the members' part
+        (members_energy) unless `members` is False."""
         w = 1.0 if weights is None else weights
         Ku = self._K_petsc.createVecLeft()
         self._K_petsc.mult(self._u_vec, Ku)
         return self.comm.allreduce(0.5 * float(np.sum(w * self._u * Ku.array))) + \
-            self._members_energy()
+            (self.members_energy() if members else 0.0)
 
-    def _members_energy(self):
+    def members_energy(self):
         """What the members' state takes from ½ u·K u (their own energy, unweighted)."""
         return sum(m.energy_correction(self._u) for m in self.members)
 

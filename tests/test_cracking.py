@@ -146,6 +146,53 @@ def test_a_deleted_link_is_kept_at_its_work_to_deletion():
         trapezoid_bound(VOLUME, h, (E0,)) + 0.01 * E * kappa_break * h * VOLUME)
 
 
+def test_the_meter_holds_the_elastic_energy_of_a_stretched_and_a_sheared_link():
+    """Two held spheres, the link stretched by ε0/2 (undamaged) and then sheared along y: it
+    holds ½ E ε² V + ½ G |εT|² V (G = E × CpmMat.poisson, YADE's ks/kn), to round-off; no
+    energy is dissipated (no damage, no slip below the cohesion); a link gone holds none."""
+    held_spheres([(0, 0, 0), (2 * R, 0, 0)], R)
+    meter = LinkMeter()
+    pull(meter, (0, 0.5 * E0 * L0 / (10 * O.dt)), 10)
+    O.bodies[1].state.vel = (0, 1e-3 * E0 * L0 / (10 * O.dt), 0)
+    for _ in range(10):
+        O.step()
+        meter.sample()
+    phys = O.interactions[0, 1].phys
+    eps, eps_t = phys.epsN, np.array(phys.epsT)
+    assert eps == pytest.approx(0.5 * E0, rel=1e-6) and np.linalg.norm(eps_t) > 0
+    alive = meter.alive()
+    expected = 0.5 * VOLUME * (E * eps ** 2 + E * 0.2 * eps_t @ eps_t)
+    assert meter.stored(alive)[0] == pytest.approx(expected, rel=1e-12)
+    parts = meter.per_interaction(alive)
+    assert parts["damage"][0] == 0 and parts["plastic"][0] == 0
+    assert abs(parts["shear"][0]) <= 1e-12 * expected       # the trapezoid is exact: linear
+    assert meter.stored(~alive)[0] == 0
+
+
+def test_a_restored_meter_carries_on_as_if_never_stopped():
+    """The meter's state() restored on the same scene reads on from where it was: after ten
+    more steps its per-link figures equal those of the meter that never stopped, bit for bit;
+    a link the scene no longer has keeps what it had."""
+    held_spheres([(0, 0, 0), (2 * R, 0, 0), (4 * R, 0, 0)], R)
+    meter = LinkMeter()
+    pull(meter, (0, E0 * L0 / (10 * O.dt), 0), 40)
+    again = LinkMeter.restored(meter.state())
+    for _ in range(10):
+        O.step()
+        meter.sample()
+        again.sample()
+    alive = meter.alive()
+    for a, b in zip(meter.per_interaction(alive).values(), again.per_interaction(alive).values()):
+        assert a.tobytes() == b.tobytes()
+    assert meter.damage > 0
+    O.interactions.erase(0, 1)
+    gone = LinkMeter.restored(meter.state())
+    gone.sample()
+    assert gone.alive().tolist() == [False, True]
+    before = meter.per_interaction(alive)["damage"][0]
+    assert gone.per_interaction(gone.alive())["damage"][0] == before
+
+
 def test_a_linear_damage_law_is_refused_in_one_line():
     held_spheres([(0, 0, 0), (2 * R, 0, 0)], R)
     O.materials[0].damLaw = 0

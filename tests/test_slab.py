@@ -107,6 +107,23 @@ def test_both_models_run_and_compare_with_finite_values(runs):
     assert (runs / "coupled" / "fe.xdmf").is_file()
 
 
+def test_compare_gives_where_the_energy_went(runs):
+    """Each run's energy split at its end (summary.json) and at each frame (damage.npz: t = 0,
+    whose residual is round-off, and the last step; the time, the residual, the terms);
+    compare's means, which for one member each are the members' own, and its page's table."""
+    from cases.slab.energies import REGIONS, TERMS
+    comparison = json.loads((runs / "cmp" / "comparison.json").read_text())
+    split = comparison["energy_split"]
+    for side, model in (("full", "full"), ("coupled", "coupled")):
+        own = json.loads((runs / model / "summary.json").read_text())["quantities"]["energy_split"]
+        assert split[side]["terms"] == own["terms"] and split[side]["input_J"] == own["input_J"]
+        rows = np.load(runs / model / "damage.npz")["energy_rows"]
+        assert rows.shape == (2, 2 + len(TERMS) * len(REGIONS))
+        assert rows[-1, 1] == own["residual_J"] and abs(rows[0, 1]) <= 1e-12 * own["input_J"]
+    assert split["members"] == {"full": 1, "coupled": 1}
+    assert 'id="energy-split"' in (runs / "cmp" / "report.html").read_text()
+
+
 def test_the_full_run_records_its_concrete_and_its_links_outside_the_de_zone(runs):
     """summary.json: the CPM set used; the record of every initial slab link (each counted
     once: the spheres' initial link counts add to twice as many) and the variants'
@@ -143,9 +160,11 @@ def test_model_invariants():
         links = [(i.id1, i.id2) for i in O.interactions if i.phys.isCohesive]
         assert not any((a in impactor) != (b in impactor) for a, b in links)
         p0 = m.impactor.mass @ m.impactor.read()[:, 3:6]
+        first = m.quantities()
         free_flight = int(spec.impactor_gap / (spec.impactor_speed * m.dt))  # ~80 steps
         for _ in range(free_flight):
             m.step()
+        check_energy_before_contact(m, first)
         m.impactor.read()
         assert np.allclose(m.impactor.mass @ m.impactor.vel, p0, rtol=0,
                            atol=1e-12 * np.linalg.norm(p0))
@@ -165,6 +184,44 @@ def test_model_invariants():
             assert on_support.any() and not m.fe.u[3 * np.flatnonzero(on_support) + 2].any()
             assert len(slab_ids) < 9514  # a DE zone, not the whole slab
         check_quantities(m, O)
+
+
+def check_energy_before_contact(m, q):
+    """Before contact the energy split (cases.slab.energies) is the impactor's kinetic
+    energy, which is the input, ½ M v²: nothing else moves, strains or dissipates (the
+    impactor's links hold round-off only)."""
+    q.sample()
+    q.output()
+    split = q.energy.split(q.cracking_map())
+    total = q.energy.input
+    assert total == pytest.approx(0.5 * m.impactor.mass.sum() * m.spec.impactor_speed ** 2,
+                                  rel=1e-12)
+    assert split["kinetic"]["impactor"] == pytest.approx(total, rel=1e-12)
+    assert abs(split["residual"]) <= 1e-12 * total
+
+
+def check_energy_split(m, q):
+    """The split's places partition the model's own totals: its kinetic energy (spheres and
+    FE), the FE's strain energy, the cracking QoI's totals, the links' stored energy; the
+    coupling's term is its exchange meter's; the residual is the input less the sum."""
+    from cases.slab.energies import REGIONS
+    q.output()
+    split = q.energy.split(q.cracking_map())
+    total = lambda term: sum(split[term][r] for r in REGIONS)       # noqa: E731
+    kinetic = sum(b.kinetic_energy() for b in m.energy_bodies)
+    elastic = q.energy.meter.stored(q.energy.meter.alive()).sum()
+    if m.fe is not None:
+        kinetic += m.fe.kinetic_energy()
+        elastic += m.fe.strain_energy()
+        assert split["coupling"]["band"] == -m.stepper.exchange.net
+    assert total("kinetic") == pytest.approx(kinetic, rel=1e-12) and kinetic > 0
+    assert total("elastic") == pytest.approx(elastic, rel=1e-12) and elastic > 0
+    cracking = q.cracking_map()[0]
+    assert total("cracking") == pytest.approx(cracking["slab_J"] + cracking["impactor_J"],
+                                              rel=1e-12)
+    assert split["residual"] == pytest.approx(
+        q.energy.input - sum(total(t) for t in split if t != "residual"), rel=1e-12)
+    assert split["kinetic"]["zone"] > 0 and split["kinetic"]["impactor"] > 0
 
 
 def check_quantities(m, O, steps=5):
@@ -187,6 +244,7 @@ def check_quantities(m, O, steps=5):
         held += (-sum(O.forces.f(int(i))[2] for i in m.support_ids) if m.fe is None
                  else (m.fe.K @ u)[z_held].sum()) / steps
     values = dict(zip(q.names, q.sample()))
+    check_energy_split(m, q)
     size = sum(np.abs(b.mass * b.read()[:, 5]).sum() for b in m.energy_bodies)
     if m.fe is not None:
         size += np.abs(m.fe.mass * m.fe.v).sum()

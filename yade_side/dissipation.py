@@ -19,47 +19,64 @@ of the equivalent strain:
   σN dεNPl V (trapezoidal).
 Contacts made later (frictional, not cohesive: ω = 1, Coulomb's friction only) join the meter
 when it lists the scene's interactions again (`LinkMeter.relist`); what one dissipates before
-it is found is missed. The trapezoidal terms want a sample every step.
+it is found is missed. The trapezoidal terms want a sample every step, or every few (the
+caller measures what that costs it).
 """
 import math
 
 import numpy as np
 
 from yade_side import import_yade
-from yade_side.memory import WIDTH, HistoryBlocks, find_offset
+from yade_side.memory import HistoryBlocks, find_offset
 
-# columns of a link's history block (yade_side.memory.HISTORY's order)
-_OMEGA, _SIGMA_N, _EPS_N, _EPS_N_PL = 0, 2, 3, 6
-_SIGMA_T, _EPS_T = slice(7, 10), slice(16, 19)
+# the columns of a link's history block read (yade_side.memory.HISTORY's order), and where
+# each quantity is among them
+COLUMNS = (0, 2, 3, 6, 7, 8, 9, 16, 17, 18)
+_OMEGA, _SIGMA_N, _EPS_N, _EPS_N_PL = 0, 1, 2, 3
+_SIGMA_T, _EPS_T = slice(4, 7), slice(7, 10)
 SAMPLE = 64     # links on which the history's place in memory is found
+BATCHES = 16    # reads of the interactions found by successive searches, before one of all
 
 
 class LinkMeter:
     """The energy dissipated, from now on, by the CPM interactions of the scene: the links it
-    has now, and the contacts that `relist` finds later. Call `sample()` after every step,
-    `relist()` every few tens of steps (a walk over the interactions), `dissipated()` at the
-    end."""
+    has now, and the contacts that `relist` finds later; per interaction, so that a caller
+    can split it by place (`keys`: each one's pair and the step it was made real in). Call
+    `sample()` after every step (or few), `relist()` as often as contacts come and go (a walk
+    over the interactions), `dissipated()` at the end."""
 
     def __init__(self):
-        self._phys, self._keys = [], []
+        self._phys, self._keys, self._known = [], [], set()
+        self._listed_at = -1          # the step of the last search: newer interactions are new
         self.volume, self.young, self.shear_modulus = np.empty(0), np.empty(0), np.empty(0)
-        self._start = self._last = np.empty((0, WIDTH))
-        self._blocks = None
-        self.damage = self.shear_work = self.plastic_work = 0.0
+        self._start = self._last = np.empty((0, len(COLUMNS)))
+        self._batches, self._offset = [], None
+        # per interaction, since it joined: the damage's dissipation, the shear and the
+        # normal plastic work
+        self._damage, self._shear, self._plastic = np.empty(0), np.empty(0), np.empty(0)
         self.relist()
         if not self._phys:
             raise ValueError("no CPM interactions to measure")
 
+    @property
+    def keys(self):
+        """(n, 3) int: each measured interaction's id1, id2 and the step it was made real in."""
+        return np.array(self._keys, np.int64).reshape(-1, 3)
+
+    damage = property(lambda self: float(self._damage.sum()))
+    shear_work = property(lambda self: float(self._shear.sum()))
+    plastic_work = property(lambda self: float(self._plastic.sum()))
+
     def relist(self):
         """Add the CPM interactions the scene has that the meter does not (each one's law must
         have run once, which sets its length and section): they count from now on. A walk over
-        the interactions (~1 µs each); each is known by its pair and the step it was made real
-        in."""
+        the interactions that reads only when each was made real (~0.3 µs each): those made
+        since the last walk are looked at; each is known by its pair and that step."""
         O = import_yade().Omega()
         CpmPhys = import_yade().wrapper.CpmPhys
-        known = set(self._keys)
-        new = [i for i in O.interactions if i.isReal and _key(i) not in known
-               and isinstance(i.phys, CpmPhys)]
+        since, self._listed_at = self._listed_at, O.iter
+        new = [i for i in O.interactions if i.iterMadeReal >= since and i.isReal
+               and isinstance(i.phys, CpmPhys) and _key(i) not in self._known]
         if not new:
             return
         phys = [i.phys for i in new]
@@ -67,41 +84,106 @@ class LinkMeter:
         if not np.isfinite(p).all() or (p[:, :2] <= 0).any():
             raise ValueError("an interaction's length or section is not set yet: sample after "
                              "a step")
-        offset = find_offset(new, SAMPLE)
-        now = HistoryBlocks(phys, offset).read()
+        self._offset = find_offset(new, SAMPLE)
+        now = HistoryBlocks(phys, self._offset, COLUMNS).read()
+        zeros = np.zeros(len(new))
+        rows = np.arange(len(self._phys), len(self._phys) + len(new))
         self._phys += phys
-        self._keys += [_key(i) for i in new]
+        keys = [_key(i) for i in new]
+        self._keys += keys
+        self._known.update(keys)
         self.volume = np.concatenate([self.volume, p[:, 0] * p[:, 1]])
         self.young = np.concatenate([self.young, p[:, 2]])
         self.shear_modulus = np.concatenate([self.shear_modulus,
                                              p[:, 3] * p[:, 1] / p[:, 0]])  # G0 = ks L0 / A
         self._start = np.concatenate([self._start, now])
         self._last = np.concatenate([self._last, now])
-        self._blocks = HistoryBlocks(self._phys, offset)
+        self._damage, self._shear, self._plastic = (np.concatenate([a, zeros]) for a in
+                                                    (self._damage, self._shear, self._plastic))
+        if len(self._batches) >= BATCHES:
+            self._bind()
+        else:
+            self._batches.append((rows, HistoryBlocks(phys, self._offset, COLUMNS)))
+
+    def _bind(self):
+        """One read of every interaction that has a CpmPhys here (those a reloaded scene no
+        longer has keep their last values)."""
+        rows = np.array([k for k, p in enumerate(self._phys) if p is not None], int)
+        self._batches = [(rows, HistoryBlocks([self._phys[k] for k in rows], self._offset,
+                                              COLUMNS))]
+
+    def _read(self):
+        (rows, blocks), *more = self._batches
+        if not more and len(rows) == len(self._last):
+            return blocks.read()
+        out = self._last.copy()
+        for rows, blocks in self._batches:
+            out[rows] = blocks.read()
+        return out
+
+    _ARRAYS = ("volume", "young", "shear_modulus", "_start", "_last", "_damage", "_shear",
+               "_plastic")
+
+    def state(self):
+        """What a checkpoint keeps ({name: array}): restored() carries on from it."""
+        return {"keys": self.keys, **{name.lstrip("_"): getattr(self, name)
+                                      for name in self._ARRAYS}}
+
+    @classmethod
+    def restored(cls, state):
+        """The meter whose state() a checkpoint kept, on the scene reloaded from it: the
+        interactions the scene still has are read on, those gone keep what they had."""
+        O = import_yade().Omega()
+        meter = cls.__new__(cls)
+        meter._keys = [tuple(int(v) for v in k) for k in np.asarray(state["keys"])]
+        meter._known, meter._listed_at = set(meter._keys), -1
+        for name in cls._ARRAYS:
+            setattr(meter, name, np.array(state[name.lstrip("_")], float))
+        scene = {_key(i): i for i in O.interactions if i.isReal}
+        found = [scene.get(k) for k in meter._keys]
+        meter._phys = [None if i is None else i.phys for i in found]
+        meter._offset = find_offset([i for i in found if i is not None], SAMPLE)
+        meter._bind()
+        return meter
 
     def sample(self):
         """Add the damage's dissipation and the shear and normal plastic work since the last
         sample."""
-        a, b = self._last, self._blocks.read()
-        self.damage += float(self.volume @ (0.5 * (self._release_rate(a) + self._release_rate(b))
-                                            * (b[:, _OMEGA] - a[:, _OMEGA])))
-        self.shear_work += float(self.volume @ np.einsum(
-            "ij,ij->i", 0.5 * (a[:, _SIGMA_T] + b[:, _SIGMA_T]), b[:, _EPS_T] - a[:, _EPS_T]))
-        self.plastic_work += float(self.volume @ (0.5 * (a[:, _SIGMA_N] + b[:, _SIGMA_N])
-                                                  * (b[:, _EPS_N_PL] - a[:, _EPS_N_PL])))
+        a, b = self._last, self._read()
+        self._damage += self.volume * (0.5 * (self._release_rate(a) + self._release_rate(b))
+                                       * (b[:, _OMEGA] - a[:, _OMEGA]))
+        self._shear += self.volume * np.einsum(
+            "ij,ij->i", 0.5 * (a[:, _SIGMA_T] + b[:, _SIGMA_T]), b[:, _EPS_T] - a[:, _EPS_T])
+        self._plastic += self.volume * (0.5 * (a[:, _SIGMA_N] + b[:, _SIGMA_N])
+                                        * (b[:, _EPS_N_PL] - a[:, _EPS_N_PL]))
         self._last = b
 
     def _release_rate(self, h):
         """½ E ⟨εN − εNPl⟩² per unit volume: the energy a unit of damage releases."""
         return 0.5 * self.young * np.maximum(h[:, _EPS_N] - h[:, _EPS_N_PL], 0.0) ** 2
 
-    def _shear_energy(self, h, alive):
-        """½ |σT|² V / G0 of the links `alive` (a link without shear stiffness has none)."""
+    def _shear_energy(self, h):
+        """½ |σT|² V / G0 per interaction (one without shear stiffness has none)."""
         sig = h[:, _SIGMA_T]
-        energy = np.divide(0.5 * self.volume * np.einsum("ij,ij->i", sig, sig),
-                           self.shear_modulus, out=np.zeros(len(sig)),
-                           where=self.shear_modulus > 0)
-        return float(energy @ alive)
+        return np.divide(0.5 * self.volume * np.einsum("ij,ij->i", sig, sig),
+                         self.shear_modulus, out=np.zeros(len(sig)),
+                         where=self.shear_modulus > 0)
+
+    def stored(self, alive):
+        """The elastic energy each interaction holds at the last sample (J), ½ V (σN (εN − εNPl)
+        + |σT|² / G0): the law's stresses are secant (σN = (1 − ω) E ε in tension, E ε in
+        compression), so this is what unloading gives back; 0 for those not `alive`."""
+        h = self._last
+        normal = 0.5 * self.volume * h[:, _SIGMA_N] * (h[:, _EPS_N] - h[:, _EPS_N_PL])
+        return np.where(alive, normal + self._shear_energy(h), 0.0)
+
+    def per_interaction(self, alive):
+        """{"damage", "shear", "plastic"}: what each interaction has dissipated since it
+        joined (J), the shear less the change of its stored shear energy (a link gone, or
+        released, has lost its own); `alive`: alive()'s mask."""
+        shear = self._shear - (np.where(alive, self._shear_energy(self._last), 0.0)
+                               - self._shear_energy(self._start))
+        return {"damage": self._damage, "shear": shear, "plastic": self._plastic}
 
     def dissipated(self):
         """Energies (J) dissipated since each interaction joined: damage, deleted (the stored
@@ -111,9 +193,9 @@ class LinkMeter:
         h, alive = self._last, self.alive()
         deleted = float(np.sum(~alive * (1 - h[:, _OMEGA]) * self._release_rate(h)
                                * self.volume))
-        shear = self.shear_work - (self._shear_energy(h, alive)
-                                   - self._shear_energy(self._start, np.ones_like(alive)))
-        out = dict(damage=self.damage, deleted=deleted, shear=shear, plastic=self.plastic_work)
+        parts = self.per_interaction(alive)
+        out = dict(damage=self.damage, deleted=deleted, shear=float(parts["shear"].sum()),
+                   plastic=self.plastic_work)
         out["total"] = math.fsum(out.values())
         out["measured"], out["deleted_count"] = len(alive), int((~alive).sum())
         return out

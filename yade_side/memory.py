@@ -196,13 +196,15 @@ class Blocks:
     the highest; the wrappers are kept, so the C++ objects outlive it). Only while the scene
     holds those objects."""
 
-    def __init__(self, objects, offset, width):
+    def __init__(self, objects, offset, width, columns=None):
         self._objects = list(objects)
         rows, self._view = _object_view(self._objects, offset + width)
-        self._index = rows[:, None] + offset + np.arange(width)
+        self._index = rows[:, None] + offset + (np.arange(width) if columns is None
+                                                else np.asarray(columns, int))
 
     def read(self):
-        return self._view[self._index]
+        """(objects, columns) doubles: every column of the block, or `columns` of it."""
+        return np.take(self._view, self._index)
 
     def write(self, values, rows=None):
         index = self._index if rows is None else self._index[rows]
@@ -228,10 +230,10 @@ def _object_view(objects, extent):
 
 
 class HistoryBlocks(Blocks):
-    """The history blocks (HISTORY) of a list of CpmPhys."""
+    """The history blocks (HISTORY) of a list of CpmPhys; with `columns`, those of each."""
 
-    def __init__(self, phys, offset):
-        super().__init__(phys, offset, WIDTH)
+    def __init__(self, phys, offset, columns=None):
+        super().__init__(phys, offset, WIDTH, columns)
 
 
 # --- the normal of interaction geometries (ScGeom.normal, a Vector3r), read and written in bulk

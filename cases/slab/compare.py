@@ -251,6 +251,11 @@ def compare(full, coupled, out, verdict=False, margin=None):
         result["warnings"] += [short] if short else []
         _plot_quantities(out / "quantities.png", full, coupled)
         _plot_profiles(out / "profiles.png", full, coupled)
+    result["energy_split"] = _energy_splits(full, coupled)
+    if result["energy_split"] is None and any(
+            _split(r) is not None for runs in (full, coupled) for r in runs.values()):
+        result["warnings"].append("the energy split is not compared: a run was made before "
+                                  "it was recorded, or with another definition of it")
     if not apart and (verdict or len(full) >= verdicts.MIN_FULL_MEMBERS):
         result["ensemble"] = _ensemble(full, coupled, names, out)
     write_json(out / "comparison.json", result)
@@ -372,6 +377,30 @@ def _cracking_totals(full, coupled):
     if any(v is None for side in energy.values() for v in side.values()):
         return {}
     return {"cracking_energy": (energy["f"], energy["c"])}
+
+
+def _energy_splits(full, coupled):
+    """{"full", "coupled": the members' mean energy split at the window's end
+    (cases.slab.energies.figures: input, residual, {term: {region: J}}), "members"}; None
+    unless every run recorded one, of one definition."""
+    splits = {side: [_split(r) for r in runs.values()]
+              for side, runs in (("full", full), ("coupled", coupled))}
+    every = [s for side in splits.values() for s in side]
+    if any(s is None for s in every) or len({s["version"] for s in every}) > 1:
+        return None
+    out = {"members": {side: len(v) for side, v in splits.items()}}
+    for side, members in splits.items():
+        mean = lambda get: float(np.mean([get(s) for s in members]))     # noqa: E731
+        out[side] = {"input_J": mean(lambda s: s["input_J"]),
+                     "residual_J": mean(lambda s: s["residual_J"]),
+                     "terms": {t: {r: mean(lambda s: s["terms"][t][r]) for r in regions}
+                               for t, regions in members[0]["terms"].items()}}
+    return out
+
+
+def _split(run):
+    """The energy split a run recorded (cases.slab.energies.figures), or None."""
+    return (run.summary.get("quantities") or {}).get("energy_split")
 
 
 def _cracking_maps(out, full, coupled):

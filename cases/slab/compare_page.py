@@ -70,12 +70,36 @@ def _yardstick(result, out):
                                                "cell, mean of each ensemble")]
 
 
+def _energy_split(split):
+    """Where the impact energy went (cases.slab.energies), the members' means at the window's
+    end: a row per term, full / compared per place, % of the input."""
+    from cases.slab.energies import REGIONS, TERMS
+    f, c = split["full"], split["coupled"]
+    share = lambda side, j: 100 * j / side["input_J"]                    # noqa: E731
+    rows = [[term] + [f"{num(share(f, f['terms'][term][r]))} / "
+                      f"{num(share(c, c['terms'][term][r]))}" for r in REGIONS]
+            for term in TERMS]
+    rows.append(["residual", f"{num(share(f, f['residual_J']))} / "
+                             f"{num(share(c, c['residual_J']))}"] + [""] * (len(REGIONS) - 1))
+    return [heading("Where the energy went"),
+            paragraph(f"% of the impact energy ({num(f['input_J'])} J full, "
+                      f"{num(c['input_J'])} J compared), full / compared, the mean of "
+                      f"{split['members']['full']} and {split['members']['coupled']} members at "
+                      f"the window's end, by place: the compared model's DE zone, its band and "
+                      f"what lies outside them, and the impactor (docs/slab.md, 'Where the "
+                      f"energy goes'). The residual, the input less the terms, is what the measure "
+                      f"misses."),
+            table(["term", *REGIONS], rows, "energy-split")]
+
+
 def write(result, full, coupled, out):
     """out/report.html for the comparison `result` of the runs {seed: Run} `full`, `coupled`."""
     blocks = [paragraph(f"Reference (full) runs: {', '.join(result['full'])}"),
               paragraph(f"Compared runs: {', '.join(result['coupled'])}")]
     if "judgement" in result:
         blocks += _yardstick(result, out)
+    if result.get("energy_split"):
+        blocks += _energy_split(result["energy_split"])
     ens = result.get("ensemble", {})
     if "within_full_scatter" in ens:
         w = ens["within_full_scatter"]

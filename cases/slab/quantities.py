@@ -35,6 +35,9 @@ the law deletes keep their energy) and per FE cell of an FE that cracks
 (fenicsx_side.damaged: dissipated_cells), each at its place: a link at the midpoint of its
 spheres' reference positions, a cell at its centre. In the coupled model's band both are
 weighted (β, α) as its energy is. The impactor's own cracking is recorded apart.
+
+At each output frame too, where the impact's energy went, by kind and by place
+(cases.slab.energies): damage.npz's energy_rows, summary.json's energy_split at the end.
 """
 import numpy as np
 
@@ -107,6 +110,8 @@ class Quantities:
         # loaded): its front and start are read here; a grown zone's model takes them, and
         # the last sample's momenta, from `last`, the model it grew from, less the whole
         # model's momentum, which the conversion carries rather than integrates
+        self.energy = _energy_split(model, None if last is None else last.energy)
+        self.energy_rows = [] if last is None else last.energy_rows
         if last is None:
             z = self.impactor.pos[:, 2]
             self.front = np.flatnonzero(z < z.min() + 2 * model.spec.radius)
@@ -160,11 +165,20 @@ class Quantities:
         out = {"last": self.last.copy()}
         if self.cracking is not None:
             out.update({f"cracking_{k}": v for k, v in self.cracking._asdict().items()})
+        if self.energy is not None:
+            out.update({f"energy_{k}": v for k, v in self.energy.state().items()})
+            out["energy_rows"] = np.array(self.energy_rows, float)
         return out
 
     def restore(self, state):
         from yade_side.cracking import LinkCracking
         self.last = np.array(state["last"], float)
+        if "energy_input" not in state:       # a checkpoint of a run made before the split
+            self.energy = None
+        elif self.energy is not None:
+            self.energy.restore({k[7:]: v for k, v in state.items()
+                                 if k.startswith("energy_") and k != "energy_rows"})
+            self.energy_rows = [list(r) for r in np.asarray(state["energy_rows"], float)]
         if "cracking_ids" in state:
             self.cracking = LinkCracking(*(np.asarray(state[f"cracking_{k}"])
                                            for k in LinkCracking._fields))
@@ -176,6 +190,10 @@ class Quantities:
         from yade_side.distributed import remote
         if remote() is None:
             self.cracking = link_cracking_energy(self.cracking)
+        if self.energy is not None:
+            from cases.slab.energies import row
+            self.energy_rows.append([self.m.O.iter * self.m.dt,
+                                     *row(self.energy.split(self.cracking_map()))])
 
     def cracking_map(self):
         """({"slab_J", "slab_links_J", "slab_fe_J", "impactor_J"}, {"crack_points" (n, 3),
@@ -207,6 +225,8 @@ class Quantities:
         return totals, {"crack_points": points, "crack_energy": energy, "crack_fe": fe}
 
     def sample(self):
+        if self.energy is not None:
+            self.energy.sample()
         now = np.array([*self._momenta(), self.m.O.iter])   # reads the impactor too
         interval = (now[2] - self.last[2]) * self.m.dt
         rates = (now[:2] - self.last[:2]) / interval if interval > 0 else [np.nan, np.nan]
@@ -226,14 +246,21 @@ class Quantities:
         front below the slab's original bottom face: penetration past the thickness), each
         QoI's peak (peak_index: its value, signed) and its time, and the cracking energy
         (cracking_map's totals, None where not measured)."""
+        from cases.slab.energies import figures
         cracking = self.cracking_map()
         return {**peak_figures(times, values),
-                "cracking_energy": None if cracking is None else cracking[0]}
+                "cracking_energy": None if cracking is None else cracking[0],
+                "energy_split": (figures(self.energy.input, self.energy_rows[-1][1:])
+                                 if self.energy is not None and self.energy_rows else None)}
 
     def arrays(self):
-        """What damage.npz adds: cracking_map's arrays (none where not measured)."""
+        """What damage.npz adds: cracking_map's arrays and the energy split's rows at the
+        output frames ("energy_rows": time, then energies.row; none where not measured)."""
         cracking = self.cracking_map()
-        return {} if cracking is None else cracking[1]
+        out = {} if cracking is None else dict(cracking[1])
+        if self.energy is not None and self.energy_rows:
+            out["energy_rows"] = np.array(self.energy_rows, float)
+        return out
 
 
 def peak_figures(times, values):
@@ -275,6 +302,16 @@ def event_ends(times, values):
     risen = ((deepest < 0) & (d - deepest >= -REBOUND * deepest))[first:]
     return {"impactor_s": float(times[first]),
             "slab_s": float(times[first + int(np.argmax(risen))]) if risen.any() else None}
+
+
+def _energy_split(model, last):
+    """The model's EnergySplit (cases.slab.energies), or None where it is not measured: a
+    scene split over MPI ranks, or an FE over several."""
+    from cases.slab.energies import EnergySplit
+    from yade_side.distributed import remote
+    if remote() is not None or (model.fe is not None and model.fe.comm.size > 1):
+        return None
+    return EnergySplit(model, last)
 
 
 def _averaging(patch, weight, n):

@@ -60,6 +60,8 @@ def run(args):
             print(f"event ends, {side}: " + "; ".join(
                 f"seed {s} impactor {_ms(e['impactor_s'])}, slab {_ms(e['slab_s'])}"
                 for s, e in ends.items()))
+    if r.get("energy_split"):
+        print(_energy_line(r["energy_split"]))
     for line in r["warnings"]:
         print(f"WARNING: {line}")
     if "judgement" in r:
@@ -71,6 +73,20 @@ def run(args):
         print(r["headline"])
     print(f"results in {out}; the page: {out / 'report.html'}")
     return 0
+
+
+def _energy_line(split):
+    """One line: each energy term's share of the input at the window's end, full / compared
+    (the members' means, every place summed)."""
+    from cases.slab.energies import TERMS
+
+    def share(side, j):
+        return f"{100 * j / side['input_J']:.1f}"
+    f, c = split["full"], split["coupled"]
+    terms = [f"{t} {share(f, sum(f['terms'][t].values()))}/{share(c, sum(c['terms'][t].values()))}"
+             for t in TERMS]
+    return (f"energy at the end, % of the impact's, full/coupled: {', '.join(terms)}, "
+            f"residual {share(f, f['residual_J'])}/{share(c, c['residual_J'])}")
 
 
 def _scatter_line(r):
