@@ -71,14 +71,15 @@ class LinkMeter:
         """Add the CPM interactions the scene has that the meter does not (each one's law must
         have run once, which sets its length and section): they count from now on. A walk over
         the interactions that reads only when each was made real (~0.3 µs each): those made
-        since the last walk are looked at; each is known by its pair and that step."""
+        since the last walk are looked at; each is known by its pair and that step. Returns
+        how many it added."""
         O = import_yade().Omega()
         CpmPhys = import_yade().wrapper.CpmPhys
         since, self._listed_at = self._listed_at, O.iter
         new = [i for i in O.interactions if i.iterMadeReal >= since and i.isReal
                and isinstance(i.phys, CpmPhys) and _key(i) not in self._known]
         if not new:
-            return
+            return 0
         phys = [i.phys for i in new]
         p = np.array([(q.crossSection, q.refLength, q.E, q.ks) for q in phys], float)
         if not np.isfinite(p).all() or (p[:, :2] <= 0).any():
@@ -104,6 +105,7 @@ class LinkMeter:
             self._bind()
         else:
             self._batches.append((rows, HistoryBlocks(phys, self._offset, COLUMNS)))
+        return len(new)
 
     def _bind(self):
         """One read of every interaction that has a CpmPhys here (those a reloaded scene no

@@ -32,7 +32,10 @@ import numpy as np
 REGIONS = ("impactor", "zone", "band", "outside")
 TERMS = ("kinetic", "elastic", "cracking", "friction", "coupling")
 VERSION = 1
-RELIST = 1        # samples between the meter's searches for new contacts (and at each split)
+# samples between the meter's searches for new contacts (a walk over every interaction, ~0.3
+# µs each): at the next sample while searches find some (a fragment's contact lasts a few
+# steps), twice as many after each that finds none, up to RELIST; and at each split
+RELIST = 32
 
 
 class EnergySplit:
@@ -55,9 +58,10 @@ class EnergySplit:
             i = model.impactor
             i.read()
             self.input = i.kinetic_energy()
-            self.meter, self.samples = None, 0
+            self.meter, self.wait, self.due = None, 1, 0
         else:
-            self.input, self.meter, self.samples = last.input, last.meter, last.samples
+            self.input, self.meter, self.wait, self.due = (last.input, last.meter, last.wait,
+                                                           last.due)
 
     def regions(self, points):
         """Index in REGIONS of each point (n, 3) of the slab: zone, band or outside."""
@@ -66,18 +70,18 @@ class EnergySplit:
 
     def sample(self):
         """At a QoI sample: the meter's dissipation since the last one (it starts at the first
-        sample after t = 0, once the links have had a step; new contacts are searched every
-        RELIST samples)."""
+        sample after t = 0, once the links have had a step), and a search for new contacts
+        when one is due (RELIST)."""
         from yade_side.dissipation import LinkMeter
         if self.meter is None:
             if self.m.O.iter > 0:
                 self.meter = LinkMeter()
-                self.samples = 1
             return
         self.meter.sample()
-        if self.samples % RELIST == 0:
-            self.meter.relist()
-        self.samples += 1
+        self.due -= 1
+        if self.due <= 0:
+            self.wait = 1 if self.meter.relist() else min(2 * self.wait, RELIST)
+            self.due = self.wait
 
     def split(self, cracking):
         """{term: {region: J}} now, and "residual" (J); `cracking`: Quantities.cracking_map's
@@ -137,14 +141,15 @@ class EnergySplit:
 
     def state(self):
         """What a checkpoint keeps ({name: array})."""
-        out = {"input": np.array(self.input), "samples": np.array(self.samples)}
+        out = {"input": np.array(self.input), "search": np.array([self.wait, self.due])}
         if self.meter is not None:
             out.update({f"meter_{k}": v for k, v in self.meter.state().items()})
         return out
 
     def restore(self, state):
         from yade_side.dissipation import LinkMeter
-        self.input, self.samples = float(state["input"]), int(state["samples"])
+        self.input = float(state["input"])
+        self.wait, self.due = (int(v) for v in state["search"])
         meter = {k[6:]: v for k, v in state.items() if k.startswith("meter_")}
         self.meter = LinkMeter.restored(meter) if meter else None
 
