@@ -31,3 +31,11 @@ def test_the_split_sums_to_the_input_where_the_law_conserves_energy(monkeypatch)
     split = q.energy.split(q.cracking_map())
     assert split["cracking"]["impactor"] + split["cracking"]["zone"] > 0.05 * q.energy.input
     assert abs(split["residual"]) <= 0.01 * q.energy.input
+
+
+def test_a_run_without_the_split_records_none():
+    """`energy_split = false`: the quantities keep no split (nothing is measured or written)."""
+    from types import SimpleNamespace
+    from cases.slab.quantities import _energy_split
+    model = SimpleNamespace(spec=slab.SlabSpec(energy_split=False), fe=None)
+    assert _energy_split(model, None) is None

@@ -306,10 +306,11 @@ def event_ends(times, values):
 
 def _energy_split(model, last):
     """The model's EnergySplit (cases.slab.energies), or None where it is not measured: a
-    scene split over MPI ranks, or an FE over several."""
+    run without it (spec.energy_split), a scene split over MPI ranks, an FE over several."""
     from cases.slab.energies import EnergySplit
     from yade_side.distributed import remote
-    if remote() is not None or (model.fe is not None and model.fe.comm.size > 1):
+    if (not model.spec.energy_split or remote() is not None
+            or (model.fe is not None and model.fe.comm.size > 1)):
         return None
     return EnergySplit(model, last)
 
