@@ -112,8 +112,8 @@ class EnergySplit:
         stepper = self.m.stepper
         if stepper is not None:
             out["coupling"]["band"] = -stepper.exchange.net
-        out = {t: {r: float(v) for r, v in parts.items()} for t, parts in out.items()}
-        out["residual"] = self.input - sum(sum(p.values()) for p in out.values())
+        out = {t: {r: float(v) for r, v in by.items()} for t, by in out.items()}
+        out["residual"] = self.input - sum(sum(by.values()) for by in out.values())
         return out
 
     def _kinetic(self):
