@@ -1,5 +1,6 @@
-"""report.html of a `compare`: the verdict table, the same-seed pairs, the sensor bands and
-damage maps (the PNGs compare wrote, inlined) and each compared run's own checks, in one page.
+"""report.html of a `compare`: the verdict table, where the impact energy went, the same-seed
+pairs, the sensor bands and damage maps (the PNGs compare wrote, inlined) and each compared
+run's own checks, in one page.
 Every figure in its tables is comparison.json's, printed to 4 significant digits."""
 from common.html import heading, items, paragraph, picture, table, write_page
 
