@@ -296,12 +296,9 @@ class DamageModel(ElasticModel):
         self._members_force(force)
         self._advance(force, dt)
 
-    def strain_energy(self, weights=None, members=True):
-        """½ Σ w u·f(u), f the damaged internal force; weights per dof (default 1); and the
-        members' part unless `members` is False."""
-        w = 1.0 if weights is None else weights
-        return 0.5 * float(np.sum(w * self._u * self.internal_force())) + \
-            (self.members_energy() if members else 0.0)
+    def nodal_strain_energy(self):
+        """½ u_i f_i(u) per dof, f the damaged internal force (strain_energy sums it)."""
+        return 0.5 * self._u * self.internal_force()
 
     def stress(self):
         """The cells' average stresses with the law's split of their effective stress."""

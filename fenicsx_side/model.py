@@ -271,14 +271,19 @@ class ElasticModel:
         w = 1.0 if weights is None else weights
         return self.comm.allreduce(0.5 * float(np.sum(w * self.mass * self._v ** 2)))
 
-    def strain_energy(self, weights=None, members=True):
-        """½ Σ w u (K u) at time t; weights per dof (default 1); and the members' part
-        (members_energy) unless `members` is False."""
+    def strain_energy(self, weights=None):
+        """½ Σ w u (K u) at time t (nodal_strain_energy); weights per dof (default 1); and the
+        members' part."""
         w = 1.0 if weights is None else weights
+        return self.comm.allreduce(float(np.sum(w * self.nodal_strain_energy()))) + \
+            self.members_energy()
+
+    def nodal_strain_energy(self):
+        """½ u_i (K u)_i per owned dof at time t, the members' part apart: they sum to
+        ½ u·K u, but one dof's share can be negative."""
         Ku = self._K_petsc.createVecLeft()
         self._K_petsc.mult(self._u_vec, Ku)
-        return self.comm.allreduce(0.5 * float(np.sum(w * self._u * Ku.array))) + \
-            (self.members_energy() if members else 0.0)
+        return 0.5 * self._u * Ku.array
 
     def members_energy(self):
         """What the members' state takes from ½ u·K u (their own energy, unweighted)."""

@@ -103,11 +103,11 @@ class EnergySplit:
         out["cracking"]["impactor"] = totals["impactor_J"]
         fe = self.m.fe
         if fe is not None:
-            node = self.regions(fe.nodes)
-            for k in (1, 2, 3):
-                dofs = np.repeat(node == k, 3)
-                out["kinetic"][REGIONS[k]] += fe.kinetic_energy(dofs)
-                out["elastic"][REGIONS[k]] += fe.strain_energy(dofs, members=False)
+            dofs = np.repeat(self.regions(fe.nodes), 3)
+            for term, per_dof in (("kinetic", 0.5 * fe.mass * fe.v ** 2),
+                                  ("elastic", fe.nodal_strain_energy())):
+                for r, e in _by_region(dofs, per_dof).items():
+                    out[term][r] += e
             out["elastic"]["outside"] += fe.members_energy()      # bars: their own part
         stepper = self.m.stepper
         if stepper is not None:
