@@ -135,8 +135,7 @@ class SlabSpec:
                                 help="steps between checkpoints")
     energy_split: bool = key(True, boolean, section="output",
                              help="record where the impact's energy goes, by kind and place "
-                                  "(cases/slab/energies.py; it costs 12-28 %% of a small-scale "
-                                  "step: docs/slab.md)")
+                                  "(cases/slab/energies.py; its cost: docs/slab.md)")
     young: float = key(None, number, MODULUS, section="material",
                        help="FE modulus (Pa); default per scale (the DE slab's bending modulus)")
     poisson: float = key(None, number, poisson_range, section="material",
