@@ -21,7 +21,7 @@ def task(run, summary):
     warmup, steps = TIMING_STEPS
     t = {"scale": spec["scale"], "model": run.config.model, "spec": spec, "warmup": warmup,
          "steps": steps, "output": True}
-    if run.config.zone == "auto":
+    if run.config.model == "coupled" and run.config.zone != "box":    # its final zone
         t["zone_cells"] = summary["zone_final"]["cells"]
     n = advance_steps(run.spec(), summary["dt"])
     if n:
@@ -31,14 +31,15 @@ def task(run, summary):
 
 def time_models(runs, outcomes, path, previous=None, log=print):
     """{run folder: figures} of the first seed of every configuration whose run finished
-    (an automatic zone: only one that ended clean); the entries of `previous` (an earlier
+    (a grown zone: only one that ended clean); the entries of `previous` (an earlier
     timing.json) are kept, and reused when their task is the same. Written to `path` after
     each model."""
     previous = dict(previous or {})
     out = dict(previous)
     for r in timed(runs):
         o = outcomes.get(r.folder)
-        if o is None or o.summary is None or "n_spheres" not in o.summary:
+        if (o is None or o.summary is None or "n_spheres" not in o.summary
+                or o.summary.get("zone_outcome") == "limit"):
             continue
         t = task(r, o.summary)
         if previous.get(r.folder, {}).get("task") == t:

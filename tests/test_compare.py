@@ -249,52 +249,6 @@ def test_runs_without_the_quantities_or_with_other_definitions_are_refused(tmp_p
     assert not (tmp_path / "cmp").exists()
 
 
-def probed(folder, model, seed, layouts):
-    """A member whose sensors are `layouts` {label or None (its own): (amplitude, x)}: each
-    layout's sensors sit at x + (0, 0.1 k, seed) and record amplitude × SHAPE."""
-    member(folder, model, seed, 1.0)
-    names, h, where = [], [], {}
-    for label, (a, x) in layouts.items():
-        for k, n in enumerate(NAMES):
-            if label is not None and n == "under_impact":
-                continue
-            name = n if label is None else f"{label}/{n}"
-            names.append(name)
-            where[name] = {"position": [x, 0.1 * k, float(seed)]}
-            h.append(a * SHAPE)
-    hist = np.zeros((len(T), len(names), 3))
-    hist[:, :, 2] = np.array(h).T
-    write_sensors(folder / "sensors.csv", names, T, hist)
-    summary = json.loads((folder / "summary.json").read_text())
-    summary["sensors"] = where
-    write_json(folder / "summary.json", summary)
-
-
-def test_full_runs_with_probes_are_compared_at_the_coupled_zone_s_probes(tmp_path):
-    """Full members carrying their own sensors (amplitude 1) and the probes of two other
-    zones, "b" (x = 1, amplitude 2) and "c" (x = 2, amplitude 3); a coupled run of zone b at
-    2.2 × SHAPE has the full run's own under-impact sensor and b's others: its peak ratios
-    are 1.1 (under the impact 2.2 / 1), with another zone's keys accepted."""
-    for seed in (1, 2):
-        probed(tmp_path / "full" / f"seed-{seed}", "full", seed,
-               {None: (1.0, 0.0), "b": (2.0, 1.0), "c": (3.0, 2.0)})
-    probed(tmp_path / "c", "coupled", 1, {None: (2.2, 1.0)})
-    summary = json.loads((tmp_path / "c" / "summary.json").read_text())
-    summary["sensors"]["under_impact"]["position"] = [0.0, 0.0, 1.0]
-    summary["spec"]["de_zone"] = 1.3
-    write_json(tmp_path / "c" / "summary.json", summary)
-    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "c"), "--out",
-                 str(tmp_path / "cmp")]) == 0
-    r = json.loads((tmp_path / "cmp" / "comparison.json").read_text())
-    ratios = {n: v["peak_ratio"] for n, v in r["pairs"]["1"]["sensors"].items()}
-    assert ratios == pytest.approx({"under_impact": 2.2, "de_zone": 1.1, "bridging": 1.1,
-                                    "fe_node": 1.1}, rel=1e-12)
-    # a coupled run whose sensors sit at no probe of the same-seed full run is refused
-    probed(tmp_path / "d", "coupled", 1, {None: (2.2, 5.0)})
-    assert main(["compare", str(tmp_path / "full"), str(tmp_path / "d"), "--out",
-                 str(tmp_path / "cmp2")]) == 2
-
-
 def test_a_peak_at_the_window_s_last_sample_is_warned(tmp_path, capsys):
     """SHAPE peaks mid-window: no warning; histories still rising when the window ends peak
     at its last sample."""

@@ -113,11 +113,11 @@ def test_compare_report_opens_in_a_browser_with_every_picture_and_figure(tmp_pat
 
 def test_study_report_opens_in_a_browser_with_the_table_and_its_picture(tmp_path):
     from cases.slab.study import report, table as st
-    from test_study import by_name, full_ensemble, runs_at, write_member
+    from test_study import FULL, members, runs_at
     runs = runs_at(40.0)
-    full_ensemble(tmp_path, runs)
-    d = by_name(runs, "zone-0.9m-strip-nb3", 1)
-    write_member(tmp_path / d.folder, d, 1.02, volume=1.05, s_per_step=0.5)
+    members(tmp_path, runs, "full", FULL, s_per_step=3.0)
+    members(tmp_path, runs, "box-0.5m", {s: 1.01 * a for s, a in FULL.items()},
+            s_per_step=0.5)
     table = st.build(runs, tmp_path)
     table["table1"] = None
     (impact,) = table["impacts"]
@@ -127,8 +127,8 @@ def test_study_report_opens_in_a_browser_with_the_table_and_its_picture(tmp_path
     page.feed(browser_dom(tmp_path / "report.html"))
     assert page.body["data-images"] == page.body["data-images-decoded"] == "1"
     rows = {row[0]: row for row in page.tables[f"impact-{impact['group']}"][1:]}
-    row = next(r for r in impact["configs"] if r["config"] == "zone-0.9m-strip-nb3")
-    shown = rows["zone-0.9m-strip-nb3"]
-    n = row["accuracy"]["sensors"]["bridging"]["nrms"]
-    assert shown[7] == f"{n['coupled_max']:.3f} / {n['full_leave_one_out_max']:.3f} within"
+    row = next(r for r in impact["configs"] if r["config"] == "box-0.5m")
+    shown = rows["box-0.5m"]
     assert shown[4] == f"{row['speedup']['value']:.2f} (runs)"
+    assert shown[5] == f"{row['judged']['equivalent']} of {row['judged']['total']}"
+    assert shown[8] == "none"

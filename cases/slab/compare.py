@@ -21,8 +21,7 @@ from orchestrator.run.outputs import QUANTITIES, damage_map, read_quantities, re
 # step may differ)
 SAME = ("scale", "radius", "impactor_speed", "impactor_side", "impactor_gap", "de_zone",
         "full_width", "layers", "band_ratio", "concrete")
-# those that only place the sensors: a full run carrying the probes of the coupled runs' zone
-# (cases.slab.probes, the study's full runs) stands for a full run of that zone
+# those that only place the sensors: runs of other zones compare on their QoIs alone
 ZONE_KEYS = ("de_zone", "full_width", "layers", "band_ratio")
 PLAN_CELL = 0.05   # m, the plan grid of the mean damage maps
 
@@ -52,7 +51,6 @@ class Run:
             # a growing zone reads the sensors of its start zone: a square of side zone_start
             self.spec.update(de_zone=self.spec["zone_start"], full_width=False)
         self.seed = self.spec.get("seed", 1)
-        self.probes = None      # the label of the other zone's probes it stands for (compare)
         self.t, self.names, self.h = read_sensors(self.folder / "sensors.csv")
         # the quantities of interest (None: a run recorded before them)
         self.quantities = None
@@ -94,11 +92,10 @@ def load(full_dirs, coupled_dirs, verdict=False):
         judge.check_members(len(full), len(coupled), len(full.keys() & coupled.keys()))
     if verdict or any(r.quantities is not None for r in [*full.values(), *coupled.values()]):
         _check_quantities([*full.values(), *coupled.values()])
-    probed = take_probes(full, coupled)
     apart = sensors_apart(full, coupled)
     if apart:
         _check_apart(full, coupled)
-    same = [k for k in SAME if not ((probed or apart) and k in ZONE_KEYS)]
+    same = [k for k in SAME if not (apart and k in ZONE_KEYS)]
     ensemble.check_same_kind({f"{r.model} {s}": {k: r.spec.get(k) for k in same}
                               for runs in (full, coupled) for s, r in runs.items()})
     names = next(iter(full.values())).names
@@ -147,10 +144,10 @@ def _check_quantities(runs):
 
 def sensors_apart(full, coupled):
     """The full runs' single-sphere sensors sit at another zone's points than the compared
-    runs' (another de_zone, width, layers or band, and no probes of theirs): only the
-    quantities of interest, which every model places alike, can be compared."""
+    runs' (another de_zone, width, layers or band): only the quantities of interest, which
+    every model places alike, can be compared."""
     f, c = next(iter(full.values())), next(iter(coupled.values()))
-    return f.probes is None and any(f.spec.get(k) != c.spec.get(k) for k in ZONE_KEYS)
+    return any(f.spec.get(k) != c.spec.get(k) for k in ZONE_KEYS)
 
 
 def _check_apart(full, coupled):
@@ -179,52 +176,6 @@ def _check_duration(f, c):
                          f"{1e3 * c.t[-1]:.4g} ms ({c.folder})")
 
 
-def take_probes(full, coupled):
-    """Full runs that also carry the probes of other zones (LABEL/SENSOR) and coupled runs
-    whose sensors are not the full runs' own: each full run keeps, under the plain names, the
-    columns of the probes that sit where the coupled runs' sensors do (found on a same-seed
-    pair: the same packing puts them at the same points). Returns the label, or None."""
-    from cases.slab.probes import SEPARATOR, full_names
-    f0, c0 = next(iter(full.values())), next(iter(coupled.values()))
-    if f0.names == c0.names or not any(SEPARATOR in n for n in f0.names):
-        return None
-    labels = set()
-    for seed, c in coupled.items():
-        f = full.get(seed)
-        if f is None:
-            raise ValueError(f"{c.folder}: the full runs carry the sensors of other zones; "
-                             f"the full run of seed {seed} tells which are this run's: give it")
-        # fe_node is a node of the coupled run and the sphere nearest it in the full one: it
-        # follows from the bridging sensor, which is checked
-        found = [label for label in {n.split(SEPARATOR)[0] for n in f.names if SEPARATOR in n}
-                 if all(_at(f, name, _where(c, n))
-                        for n, name in zip(c.names, full_names(label, c.names))
-                        if n != "fe_node")]
-        if len(found) != 1:
-            raise ValueError(f"{c.folder}: {'no' if not found else 'more than one'} set of "
-                             f"probes of the full run {f.folder} sits at its sensors")
-        labels.add(found[0])
-    if len(labels) > 1:
-        raise ValueError(f"the coupled runs have zones of their own ({', '.join(sorted(labels))}"
-                         f"): compare them one at a time")
-    label = labels.pop()
-    for f in full.values():
-        columns = [f.names.index(name) for name in full_names(label, c0.names)]
-        f.names, f.h, f.probes = list(c0.names), f.h[:, columns], label
-    return label
-
-
-def _where(run, name):
-    return run.summary.get("sensors", {}).get(name, {}).get("position")
-
-
-def _at(run, name, position):
-    """The sensor `name` of `run` sits at `position` (to round-off)."""
-    mine = _where(run, name)
-    return (name in run.names and mine is not None and position is not None
-            and np.allclose(mine, position, rtol=0, atol=1e-9))
-
-
 def compare(full, coupled, out, verdict=False, margin=None):
     """comparison.json and PNGs in `out` for the runs of `load`: with the members the
     equivalence test needs, the QoIs judged (judge.judge, `margin`: its margins) and the
@@ -243,8 +194,7 @@ def compare(full, coupled, out, verdict=False, margin=None):
             "the full runs' single-sphere sensors sit at another zone's points than the "
             "compared runs': only the quantities of interest are compared")
     if verdict or judged(full, coupled):
-        result["judgement"] = judge.judge(_quantities(full), _quantities(coupled), margin,
-                                          _cracking_totals(full, coupled))
+        result["judgement"] = judgement(full, coupled, margin)
         result["headline"] = judge.headline(result["judgement"])
         result["cracking_map_correlation"] = _cracking_maps(out, full, coupled)
         short = judge.window_warning(result["judgement"])
@@ -264,6 +214,13 @@ def compare(full, coupled, out, verdict=False, margin=None):
                    [] if apart else names, full[seed], coupled[seed])
     compare_page.write(result, full, coupled, out)
     return result
+
+
+def judgement(full, coupled, margin=None):
+    """The yardstick's judgement (judge.judge) of the runs of `load` on their quantities of
+    interest and their cracking energy."""
+    return judge.judge(_quantities(full), _quantities(coupled), margin,
+                       _cracking_totals(full, coupled))
 
 
 def last_sample_warnings(pairs):

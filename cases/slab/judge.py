@@ -158,7 +158,7 @@ def failures(judgement):
     return out, equivalent
 
 
-def _named(kind, labels):
+def named(kind, labels):
     """The labels a headline names: a QoI cut by the window once, not once per statistic."""
     if kind != NOT_JUDGED:
         return labels
@@ -169,18 +169,18 @@ def headline(judgement):
     """The judgement in one line, naming every statistic that is not equivalent."""
     fails, equivalent = failures(judgement)
     total = equivalent + sum(len(v) for v in fails.values())
-    fails = {kind: _named(kind, labels) for kind, labels in fails.items()}
+    fails = {kind: named(kind, labels) for kind, labels in fails.items()}
     m = judgement["margins"]
     parts = [f"equivalent on {equivalent} of {total} (margins: peak {m['peak']:.0%}, time "
              f"{m['peak_time']:.0%}, history {m['history']:.0%} of the full mean)"]
     for kind, labels in fails.items():
         if labels:
             parts.append(f"{'NOT equivalent' if kind == 'not equivalent' else kind}: "
-                         f"{', '.join(_label(judgement, x) for x in labels)}")
+                         f"{', '.join(described(judgement, x) for x in labels)}")
     return "yardstick: " + "; ".join(parts)
 
 
-def _label(judgement, label):
+def described(judgement, label):
     """A failing statistic with what it measured: the difference and its interval, or the
     members it needs, or the members whose extreme is the window's end."""
     if label in judgement["qoi"]:

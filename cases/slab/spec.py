@@ -3,6 +3,7 @@ The `slab` command's options and the case files' `kind = "slab"` schema are made
 SlabSpec's fields (orchestrator.casefile.spec_schema, cli.commands._options)."""
 import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 from orchestrator.casefile import (DENSITY, FRACTURE_ENERGY, MODULUS, SEED, STRENGTH, boolean,
                                    check_spec, choice, integer, number, poisson_range,
@@ -350,3 +351,11 @@ NEEDS = {
     "grow_shear": (lambda s, m: m == "coupled" and s.zone == "grow",
                    "the coupled model with zone 'grow'"),
 }
+
+
+def inert_fields(values, model):
+    """The fields of a description ({field: value}, every field given) that cannot act on a
+    `model` run (NEEDS); the relaxation rule's record goes with the relaxation."""
+    view = SimpleNamespace(**values)
+    inert = {k for k, (acts, _) in NEEDS.items() if not acts(view, model)}
+    return inert | ({"relaxation_rule"} if "relaxation" in inert else set())

@@ -1,21 +1,15 @@
-"""The table of the study "where coupling pays", from its run folders: per configuration of each
-impact, each sensor's deviation against the full ensemble's scatter (orchestrator.ensemble,
-orchestrator.verdicts), the damaged volume against the full members', the per-step speed-up and
-the sphere ratio, the total cost (an automatic zone's failed attempts included), and the goal:
-within the full scatter on every sensor and the damaged volume, and at least GOAL_SPEEDUP
-cheaper per step.
-
-A coupled member is compared at its own sensors: the full members record them too
-(cases.slab.probes), under the plain names when the zone and band are the full model's own
-(the scale's), else as "LAYOUT/SENSOR" (layout_label)."""
+"""The table of the study "where coupling pays", from its run folders: per coupled zone of each
+impact, the yardstick's judgement against the impact's full ensemble (cases.slab.judge on the
+quantities of interest and the cracking energy, as `compare` gives it), the per-step speed-up
+and the sphere ratio, the wall time spent (a grown zone's conversions included), and the
+goal: every statistic equivalent, and at least GOAL_SPEEDUP cheaper per step. A statistic
+that cannot judge or is not judged leaves the goal undecided, never met."""
 import numpy as np
 
-from cases.slab.compare import Run
-from cases.slab.probes import full_names
+from cases.slab import compare, judge
 from cases.slab.study.plan import Config, where
-from orchestrator import ensemble, verdicts
 
-GOAL_SPEEDUP = {"small": 5.0, "medium": 5.0, "paper": 10.0}   # per step, the issue's
+GOAL_SPEEDUP = {"small": 5.0, "medium": 5.0, "paper": 10.0}   # per step, the slab issue's
 SPEEDUP_SOURCES = {
     "timing": "timed back to back on CPU time, one window of each model in its own process "
               "(bench.worker; timing.json)",
@@ -24,17 +18,9 @@ SPEEDUP_SOURCES = {
 }
 
 
-def layout_label(run):
-    """The label of the full members' probes for the planned coupled `run`'s sensors (None:
-    the full model's own sensors)."""
-    c = run.config
-    if c.same_layout_as_full():
-        return None
-    return f"{c.layout}-seed-{run.seed}" if c.zone == "auto" else c.layout
-
-
 def groups(runs):
-    """{group: {"full": [planned], config: [planned]}} in plan order."""
+    """{group: {config: [planned]}} in plan order; each group's full configuration first
+    (plan.impact)."""
     out = {}
     for r in runs:
         out.setdefault(r.config.group, {}).setdefault(r.config, []).append(r)
@@ -42,291 +28,176 @@ def groups(runs):
 
 
 def build(runs, out, index=None, timing=None):
-    """The table: {"impacts": [{"group", "scale", "velocity", "full": {...}, "configs":
-    [...]}]} of the planned `runs` found in `out` (or among the reused ensembles `index`);
-    `timing`: the one-window timing ({run folder: bench figures}), else the runs' own."""
-    index = index or {}
+    """The table: {"impacts": [{"group", "scale", "velocity", "reinforced", "full": {...},
+    "configs": [...]}]} of the planned `runs` found in `out` (or among the reused ensembles
+    `index`); `timing`: the one-window timing ({run folder: bench figures}), else the runs'
+    own."""
     impacts = []
     for group, configs in groups(runs).items():
-        full_cfg = next((c for c in configs if c.model == "full"), None)
-        found = {c: {r.seed: (r, *where(r, out, index)) for r in rs} for c, rs in configs.items()}
-        full = {}
-        if full_cfg is not None:
-            full = {seed: Run(f) for seed, (r, f, s) in found[full_cfg].items() if s is not None}
-        first = next(iter(configs))
-        impact = {"group": group, "scale": first.scale, "velocity": first.velocity,
-                  "reinforced": first.reinforced,
-                  "full": _full_figures(full_cfg, found.get(full_cfg, {}), full),
-                  "configs": []}
-        for c, members in found.items():
-            if c.model != "full":
-                impact["configs"].append(config_row(c, members, full, full_cfg, found, timing))
-        impacts.append(impact)
+        found = {c: {r.seed: (r, *where(r, out, index or {})) for r in rs}
+                 for c, rs in configs.items()}
+        full_cfg = next(c for c in configs if c.model == "full")
+        full = found[full_cfg]
+        impacts.append({"group": group, "scale": full_cfg.scale, "velocity": full_cfg.velocity,
+                        "reinforced": full_cfg.reinforced, "full": _full_figures(full),
+                        "configs": [config_row(c, members, full, timing)
+                                    for c, members in found.items() if c.model != "full"]})
     return {"impacts": impacts}
 
 
-def _full_figures(cfg, members, full):
-    if cfg is None:
-        return {"seeds": [], "missing": []}
-    summaries = {seed: s for seed, (_, _, s) in members.items() if s is not None}
-    return {"seeds": sorted(full), "missing": sorted(set(members) - set(full)),
-            "folders": {seed: str(f) for seed, (_, f, s) in members.items() if s is not None},
-            "spheres": _mean([s["n_spheres"] for s in summaries.values()]),
-            "steps": _first(summaries, "steps"), "dt": _first(summaries, "dt"),
-            "wall_s": [spent(summaries[k]) for k in sorted(summaries)],
-            "s_per_step": [summaries[k]["s_per_step"] for k in sorted(summaries)]}
+def _finished(members):
+    """{seed: (planned, folder, summary)} of the members that finished."""
+    return {seed: m for seed, m in sorted(members.items()) if m[2] is not None}
 
 
-def config_row(c, members, full, full_cfg, found, timing):
-    """The figures of one coupled configuration (members: {seed: (planned, folder, summary)})."""
-    done = {seed: (r, f, s) for seed, (r, f, s) in members.items() if s is not None}
-    d = c.defaults()
-    row = {"config": c.name, "model": "coupled", "zone": c.zone, "layers": d.layers,
-           "fe_material": c.fe_material,
-           "de_zone_m": None if c.zone == "auto" else d.de_zone,
-           "full_width": None if c.zone == "auto" else d.full_width,
-           "band_ratio": c.band_ratio,
+def _full_figures(members):
+    done = _finished(members)
+    s = [x for _, _, x in done.values()]
+    return {"seeds": sorted(done), "missing": sorted(set(members) - set(done)),
+            "folders": {seed: str(f) for seed, (_, f, _) in done.items()},
+            "spheres": _mean([x["n_spheres"] for x in s]),
+            "steps": s[0]["steps"] if s else None, "dt": s[0]["dt"] if s else None,
+            "wall_s": [spent(x) for x in s], "s_per_step": [x["s_per_step"] for x in s]}
+
+
+def config_row(c, members, full_members, timing):
+    """The figures of one coupled configuration (members: {seed: (planned, folder,
+    summary)}, full_members: its impact's full ones)."""
+    done = _finished(members)
+    row = {"config": c.name, "zone": c.zone, "de_zone_m": c.de_zone,
            "seeds": sorted(done), "missing": sorted(set(members) - set(done)),
-           "folders": {seed: str(f) for seed, (_, f, _) in done.items()}}
-    row["cost"] = _cost(done, found.get(full_cfg, {}))
-    limit = {seed for seed, (_, _, s) in done.items() if s.get("zone_outcome") == "limit"}
-    runs = {seed: Run(f) for seed, (_, f, s) in done.items() if seed not in limit}
-    row["zone_limit_seeds"] = sorted(limit)
+           "folders": {seed: str(f) for seed, (_, f, _) in done.items()},
+           "cost": _cost(done, _finished(full_members))}
+    limit = [seed for seed, (_, _, s) in done.items() if s.get("zone_outcome") == "limit"]
+    row["zone_limit_seeds"] = limit
     if limit:
-        row["zone_message"] = done[min(limit)][2].get("zone_message")
-    if runs:
-        s = [done[k][2] for k in sorted(runs)]
+        row["zone_message"] = done[limit[0]][2].get("zone_message")
+    judged = {seed: m for seed, m in done.items() if seed not in limit}
+    if judged:
+        s = [x for _, _, x in judged.values()]
         row.update(spheres=_mean([x["n_spheres"] for x in s]),
                    fe_nodes=_mean([x["n_fe_nodes"] for x in s]),
                    bridging_spheres=_mean([x["n_bridging_spheres"] for x in s]),
-                   steps=s[0]["steps"], dt=s[0]["dt"],
-                   s_per_step=_mean([x["s_per_step"] for x in s]))
-        if full:
-            full_spheres = _mean([r.summary["n_spheres"] for r in full.values()])
+                   layers=s[0]["spec"]["layers"], steps=s[0]["steps"], dt=s[0]["dt"],
+                   s_per_step=_mean([x["s_per_step"] for x in s]),
+                   conversions=[len(x.get("zone_conversions", [])) for x in s])
+        full_spheres = _mean([x["n_spheres"] for _, _, x in _finished(full_members).values()])
+        if full_spheres is not None:
             row["sphere_ratio"] = full_spheres / row["spheres"]
-    row["warnings"] = {seed: s.get("warnings", []) for seed, (_, _, s) in done.items()
-                       if seed not in limit}
-    row["speedup"] = _speedup(done, runs, full, found.get(full_cfg, {}), timing)
-    row["accuracy"] = _accuracy(runs, {seed: done[seed][0] for seed in runs}, full)
-    row["goal"] = goal(c.scale, row, limit)
+    row["warnings"] = {seed: s.get("warnings", []) for seed, (_, _, s) in judged.items()}
+    row["speedup"] = _speedup(judged, _finished(full_members), timing)
+    row["judged"] = _judged(judged, _finished(full_members))
+    row["goal"] = goal(c.scale, row)
     return row
 
 
+def _judged(done, full):
+    """The yardstick on the finished members: {"judgement", "headline", "equivalent",
+    "total", "failures"}, or {"why"} when it cannot be applied."""
+    if not done:
+        return {"why": "no finished coupled run"}
+    if not full:
+        return {"why": "no finished full run of this impact"}
+    try:
+        f, c = compare.load([x[1] for x in full.values()], [x[1] for x in done.values()],
+                            verdict=True)
+        j = compare.judgement(f, c)
+    except (OSError, ValueError) as e:
+        return {"why": f"not comparable with the full runs: {e}"}
+    fails, equivalent = judge.failures(j)
+    return {"judgement": j, "headline": judge.headline(j), "equivalent": equivalent,
+            "total": equivalent + sum(map(len, fails.values())),
+            "failures": {kind: [x if kind == judge.NOT_JUDGED else judge.described(j, x)
+                                for x in judge.named(kind, labels)]
+                         for kind, labels in fails.items()}}
+
+
 def _cost(done, full_members):
-    """Wall seconds spent: every member, an automatic zone's failed attempts included."""
+    """Wall seconds spent: every member, a grown zone's conversions included."""
     walls = {seed: spent(s) for seed, (_, _, s) in done.items()}
-    attempts = {seed: len(s["zone_attempts"]) for seed, (_, _, s) in done.items()
-                if "zone_attempts" in s}
-    full_walls = [spent(s) for _, (_, _, s) in full_members.items() if s is not None]
-    out = {"wall_s": walls, "total_wall_s": float(sum(v for v in walls.values() if v)),
-           "attempts": attempts or None}
+    full_walls = [spent(s) for _, _, s in full_members.values()]
+    out = {"wall_s": walls, "total_wall_s": float(sum(walls.values()))}
     if full_walls and walls:
         out["against_full_run"] = {seed: w / np.mean(full_walls) for seed, w in walls.items()
                                    if w}
-    projected = {seed: s["full_model_projected"]["wall_s"] for seed, (_, _, s) in done.items()
-                 if "full_model_projected" in s}
-    if projected:
-        out["full_model_projected_wall_s"] = projected
     return out
 
 
 def spent(summary):
-    """Wall seconds a run took: an automatic zone's search (every attempt, its builds
-    included), else the build and the steps."""
+    """Wall seconds a run took: its build and its steps (a grown zone: its conversions too;
+    one stopped at its limit: up to there)."""
     if "zone_total_wall_s" in summary:
         return summary["zone_total_wall_s"]
     return summary.get("wall_s", 0.0) + summary.get("build_s", 0.0)
 
 
-def _speedup(done, runs, full, full_members, timing):
+def _speedup(done, full, timing):
     """Per-step speed-up: from the one-window timing when it holds both models, else from
     the runs' own time per step (each figure says where it comes from)."""
     out = {}
-    seed = min(runs) if runs else None
-    if timing and seed is not None:
-        f_key = next((r.folder for _, (r, _, _) in sorted(full_members.items())), None)
-        t_c = timing.get(done[seed][0].folder)
-        t_f = timing.get(f_key) if f_key else None
+    if timing and done and full:
+        t_c = timing.get(next(iter(done.values()))[0].folder)
+        t_f = timing.get(next(iter(full.values()))[0].folder)
         if t_c and t_f:
             out["timing"] = t_f["step_s"] / t_c["step_s"]
             out["timing_step_s"] = {"full": t_f["step_s"], "coupled": t_c["step_s"]}
-    if runs and full:
-        c_step = np.mean([done[k][2]["s_per_step"] for k in runs])
-        f_step = np.mean([r.summary["s_per_step"] for r in full.values()])
-        out["runs"] = float(f_step / c_step)
+    if done and full:
+        out["runs"] = float(np.mean([s["s_per_step"] for _, _, s in full.values()])
+                            / np.mean([s["s_per_step"] for _, _, s in done.values()]))
     source = "timing" if "timing" in out else "runs" if "runs" in out else None
     out["value"] = out.get(source)
     out["source"] = SPEEDUP_SOURCES.get(source)
     return out
 
 
-def _accuracy(runs, planned, full):
-    """Deviations against the full members at each coupled member's own sensors."""
-    if not runs:
-        return None
-    if not full:
-        return {"judged": False, "why": "no full run of this impact"}
-    by_layout = {}
-    for seed, run in runs.items():
-        by_layout.setdefault(layout_label(planned[seed]), {})[seed] = run
-    names = next(iter(runs.values())).names
-    z = lambda r, cols: (r.t, r.h[:, [r.names.index(n) for n in cols], 2])
-    sensors = {n: [] for n in names}
-    paired = {n: [] for n in names}
-    for label, members in by_layout.items():
-        cols = full_names(label, names)
-        lacking = [s for s, r in full.items() if not set(cols) <= set(r.names)]
-        if lacking:
-            return {"judged": False,
-                    "why": f"the full run(s) of seed(s) {lacking} have no sensors at this "
-                           f"zone's ({label or 'own'}): rerun them with its probes"}
-        try:
-            hist = ensemble.histories({s: z(r, cols) for s, r in full.items()},
-                                      {s: z(r, names) for s, r in members.items()}, names)
-        except ValueError as e:          # e.g. no common time window
-            return {"judged": False, "why": f"not comparable with the full runs: {e}"}
-        v = (verdicts.within_full_scatter(hist) if len(full) >= verdicts.MIN_FULL_MEMBERS
-             else None)
-        for n in names:
-            sensors[n].append((hist, v["sensors"][n] if v else None))
-            paired[n] += [x for x in hist["paired"][n]["nrms"]]
-    dmg = ensemble.damage({s: r.summary["damage"] for s, r in full.items()},
-                          {s: r.summary["damage"] for s, r in runs.items()})
-    out = {"judged": len(full) >= verdicts.MIN_FULL_MEMBERS, "n_full": len(full),
-           "weak": len(full) < verdicts.WEAK_BELOW, "sensors": {}, "damage": {}}
-    for n in names:
-        out["sensors"][n] = _sensor(sensors[n], paired[n], n)
-    within = verdicts.damage_within_full_scatter(dmg) if out["judged"] else None
-    for key in ensemble.DAMAGE_FIGURES:
-        f = dmg["full"][key]
-        out["damage"][key] = {
-            "full_members": f["members"], "full_mean": f["mean"],
-            "coupled_members": dmg["coupled_vs_full_mean"][key]["members"],
-            "ratio_to_full_mean": dmg["coupled_vs_full_mean"][key]["ratio"],
-            "paired_ratio": dmg["paired"][key]["ratio"],
-            "verdict": within[key] if within else None}
-    if not out["judged"]:
-        out["why"] = (f"{len(full)} full run: a verdict against the full scatter needs "
-                      f"{verdicts.MIN_FULL_MEMBERS}; the paired figures and the slab issue's "
-                      f"absolute goals are given")
-        out["absolute_goals"] = _absolute(out)
-    return out
-
-
-def _sensor(groups_, paired, name):
-    """One sensor over the layouts of the members: the largest coupled deviation and, as
-    the scatter it is judged against, each layout's own; within when every layout is."""
-    nrms_v = [v["nrms"] if v else None for _, v in groups_]
-    peak_v = [v["peak"] if v else None for _, v in groups_]
-    hist = [h for h, _ in groups_]
-    coupled_nrms = [x for h in hist for x in h["coupled_vs_full_mean"][name]["nrms"]]
-    peak_ratio = [x for h in hist for x in h["coupled_vs_full_mean"][name]["peak_ratio"]]
-    out = {"nrms_to_full_mean": coupled_nrms, "peak_ratio_to_full_mean": peak_ratio,
-           "paired_nrms": paired,
-           "full_nrms_leave_one_out": [h["full_scatter"][name]["nrms_leave_one_out"]
-                                       for h in hist]}
-    if all(v is not None for v in nrms_v):
-        out["nrms"] = _combined(nrms_v)
-        out["peak"] = _combined(peak_v)
-        out["within"] = out["nrms"]["within"] and out["peak"]["within"]
-        out["null_within"] = out["nrms"]["null_within"] or out["peak"]["null_within"]
-    else:
-        out["within"] = out["null_within"] = None
-    return out
-
-
-def _combined(vs):
-    """Verdicts of several layouts as one: the largest coupled deviation, the smallest scatter
-    (both as figures), within when each layout's verdict is."""
-    c = [v["coupled_max"] for v in vs]
-    f = [v["full_leave_one_out_max"] for v in vs]
-    ok = all(x is not None for x in c + f)
-    return {"coupled_max": max(c) if ok else None, "full_leave_one_out_max": min(f) if ok
-            else None, "within": all(v["within"] for v in vs), "weak": any(v["weak"] for v in vs),
-            "null_within": any(v.get("null_within") for v in vs), "n_full": vs[0]["n_full"]}
-
-
-def _absolute(acc):
-    """The slab issue's goals of each member against the full mean (one full run: itself)."""
-    names = list(acc["sensors"])
-    n = len(acc["sensors"][names[0]]["nrms_to_full_mean"])
-    vol = acc["damage"]["damaged_volume_m3"]["ratio_to_full_mean"]
-    return [verdicts.absolute_goals(
-        {s: acc["sensors"][s]["nrms_to_full_mean"][i] for s in names},
-        {s: acc["sensors"][s]["peak_ratio_to_full_mean"][i] for s in names}, vol[i])
-        for i in range(n)]
-
-
-def goal(scale, row, limit):
-    """The issue's goal for one configuration: within the full scatter on every sensor and the
-    damaged volume, and GOAL_SPEEDUP cheaper per step; `why` says what decided it."""
+def goal(scale, row):
+    """The goal for one configuration: {"qualifies": True | False | None (undecided),
+    "equivalent", "cheap_enough", "why"}: every statistic equivalent and GOAL_SPEEDUP cheaper
+    per step; any statistic not equivalent, or too slow, fails it; one that cannot judge or
+    is not judged leaves it undecided."""
     need = GOAL_SPEEDUP[scale]
-    acc, speed = row["accuracy"], row["speedup"]["value"]
-    cheap = None if speed is None else speed >= need
-    if limit:
-        return {"qualifies": False, "within_scatter": None, "cheap_enough": cheap,
-                "why": f"the automatic zone reached its limit on seed(s) {sorted(limit)}: "
-                       f"coupling cannot pay for this impact"}
-    if acc is None or not acc.get("judged"):
-        why = "no finished run" if acc is None else acc["why"]
-        return {"qualifies": None if cheap is not False else False, "within_scatter": None,
-                "cheap_enough": cheap,
-                "why": why if cheap is not False else f"{speed:.2f}x < {need:g}x per step; {why}"}
-    outside = [n for n, s in acc["sensors"].items() if not s["within"]]
-    volume = acc["damage"]["damaged_volume_m3"]["verdict"]["within"]
-    if not volume:
-        outside.append("damaged volume")
-    within = not outside
-    blind = [n for n, s in acc["sensors"].items() if s.get("null_within")]
-    if acc["damage"]["damaged_volume_m3"]["verdict"].get("null_within"):
-        blind.append("damaged volume")
-    verdict = (f"outside the full scatter: {', '.join(outside)}" if outside else
-               "within the full scatter" + (" (weak: 2 full runs)" if acc["weak"] else ""))
-    if blind:
-        verdict += (f" (a null prediction, no displacement or no damage, is within it too on: "
-                    f"{', '.join(blind)})")
+    speed = row["speedup"]["value"]
+    cheap = None if speed is None else bool(speed >= need)
     speed_part = ("no per-step speed-up measured" if cheap is None else
                   f"{speed:.2f}x {'>=' if cheap else '<'} {need:g}x per step")
-    return {"qualifies": within and bool(cheap), "within_scatter": within, "cheap_enough": cheap,
-            "null_within": blind,
-            "why": verdict + (", " if within and cheap else "; ") + speed_part}
-
-
-def qualifying_configs(table, runs):
-    """The planned fixed-zone configurations whose row in `table` qualifies."""
-    rows = {(i["group"], r["config"]) for i in table["impacts"] for r in i["configs"]
-            if r["goal"]["qualifies"]}
-    return list(dict.fromkeys(r.config for r in runs if r.config.model == "coupled"
-                              and r.config.zone != "auto"
-                              and (r.config.group, r.config.name) in rows))
+    if row["zone_limit_seeds"]:
+        return {"qualifies": False, "equivalent": None, "cheap_enough": cheap,
+                "why": f"cannot pay: the grown zone reached its limit on seed(s) "
+                       f"{', '.join(map(str, row['zone_limit_seeds']))}"}
+    j = row["judged"]
+    if "judgement" not in j:
+        equivalent, verdict = None, j["why"]
+    else:
+        counts = {kind: len(labels) for kind, labels in judge.failures(j["judgement"])[0].items()}
+        equivalent = (False if counts["not equivalent"] else None if any(counts.values())
+                      else True)
+        verdict = (f"equivalent on all {j['total']}" if equivalent else
+                   ", ".join(f"{n} {kind}" for kind, n in counts.items() if n)
+                   + f" of {j['total']}")
+    qualifies = (False if equivalent is False or cheap is False else
+                 True if equivalent and cheap else None)
+    return {"qualifies": qualifies, "equivalent": equivalent, "cheap_enough": cheap,
+            "why": f"{verdict}; {speed_part}"}
 
 
 def choose(table):
-    """The medium configuration the paper pair takes: the qualifying one with the largest
-    speed-up (at the highest velocity where one qualifies); if none qualifies, None (the pair
-    then measures the paper scale's own zone)."""
-    best = None
+    """{velocity: Config} the paper part takes: at each medium velocity the plain slab's
+    configuration that qualifies with the largest speed-up (none: the paper scale's grown
+    zone)."""
+    best = {}
     for impact in table["impacts"]:
-        if impact["scale"] == "paper" or impact.get("reinforced"):   # the paper's slab is plain
+        if impact["scale"] == "paper" or impact["reinforced"]:     # the paper's slab is plain
             continue
         for row in impact["configs"]:
-            if row["goal"]["qualifies"]:
-                key = (impact["velocity"], row["speedup"]["value"])
-                if best is None or key > best[0]:
-                    best = (key, impact, row)
-    if best is None:
-        return None
-    _, impact, row = best
-    return Config("paper", impact["velocity"], "coupled", zone=row["zone"],
-                  de_zone=row["de_zone_m"], full_width=row["full_width"], layers=row["layers"],
-                  band_ratio=row.get("band_ratio"), fe_material=row.get("fe_material", "elastic"))
+            v = impact["velocity"]
+            if row["goal"]["qualifies"] and (v not in best or row["speedup"]["value"]
+                                             > best[v][0]):
+                best[v] = (row["speedup"]["value"],
+                           Config("paper", v, "coupled", zone=row["zone"],
+                                  de_zone=row["de_zone_m"]))
+    return {v: c for v, (_, c) in best.items()}
 
 
 def _mean(values):
     values = [v for v in values if v is not None]
     return float(np.mean(values)) if values else None
-
-
-def _first(summaries, key):
-    return next((s.get(key) for s in summaries.values()), None)
-
