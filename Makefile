@@ -113,10 +113,11 @@ bench: setup
 bench-quick: setup
 	$(PY) -m bench --quick
 
-# Where coupling pays (results/where-coupling-pays/page.md): the coupled slab against the full
-# ensembles at medium scale, 10 and 40 m/s, zones x bridging layers, and the paper-scale pair;
-# about 3 h of one core (STUDY_ARGS="--dry-run" prints the plan and its projected cost;
-# "--reuse-ensembles results/slab-medium" reuses make validate's runs; "--sweep full": 6.4 h).
+# Where coupling pays (results/where-coupling-pays/page.md): the coupled zones against the full
+# ensemble of each impact, judged by the yardstick, at medium scale, 10 and 40 m/s, seeds 1-4
+# (STUDY_ARGS="--dry-run" prints the plan and its projected cost; "--reuse-ensembles DIR"
+# reuses finished runs of the same description; "--sweep full" adds 20 m/s, the 1.0 m box, the
+# reinforced slab and the paper scale).
 study: setup
 	$(PY) -m cli study $(STUDY_ARGS)
 

@@ -240,6 +240,7 @@ def test_a_fallback_stopped_resumes_and_ends_as_the_run_not_stopped(tmp_path):
     growth = ("zone_conversions", "zone_final", "zone_segments", "zone_sphere_steps",
               "zone_message", "zone_limit_reached", "zone_full_model_spheres")
     assert {k: sb[k] for k in growth} == {k: sa[k] for k in growth}
+    assert sa["zone_wall_s"] > 0 and sb["zone_wall_s"] > 0       # each process's to its limit
     assert sb["n_spheres"] == sa["n_spheres"] and sb["steps"] == sa["steps"] == 160
     for name, sensor in sa["sensors"].items():
         assert np.isclose(sb["sensors"][name]["peak_displacement"],

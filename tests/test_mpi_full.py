@@ -53,6 +53,11 @@ def test_three_ranks_give_the_serial_run_to_round_off(tmp_path):
     assert (np.nanmax(np.abs(qa - qb), axis=0) <= 1e-6 * np.nanmax(np.abs(qa), axis=0)).all()
     sa, sb = (json.loads((f / "summary.json").read_text()) for f in (serial, mpi))
     assert sb["spec"]["mpi"] == 3
+    # the energy split reads one process's memory: the MPI run records none and says so
+    assert sa["quantities"]["energy_split"] is not None
+    assert sb["quantities"].get("energy_split") is None
+    assert ("note: no energy split is recorded: its YADE scene is split over MPI ranks"
+            in (mpi / "run.log").read_text())
     assert sa["n_spheres"] == sb["n_spheres"]
     assert sa["damage"]["initial_links"] == sb["damage"]["initial_links"]
     assert sa["damage"]["broken_links"] == sb["damage"]["broken_links"] > 0

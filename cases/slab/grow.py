@@ -17,6 +17,7 @@ it.
 """
 from dataclasses import asdict
 from pathlib import Path
+from time import perf_counter
 from types import SimpleNamespace
 
 import numpy as np
@@ -59,6 +60,7 @@ def run_grow(spec, out, quiet=False, resume=False, inputs=None):
     on, orchestrator.run.inputs; a resumed run must have the same), or, when the zone had
     reached its limit, the fallback's full model from its own (fallback_growth)."""
     from orchestrator.run.inputs import spec_inputs
+    started = perf_counter()
     base, start, limit, _ = check(spec)
     grid = cell_grid(base)
     inputs = spec_inputs(spec, "coupled") if inputs is None else inputs
@@ -81,7 +83,9 @@ def run_grow(spec, out, quiet=False, resume=False, inputs=None):
             f"{int(model.zone.sum())} of {model.zone.size} in-plane cells, "
             f"{model.sphere_count()} of the full model's {full_spheres} spheres)")
         print(message)
+        # the wall time to the limit, build included (a resumed run: since its resume)
         growth = {**_growth_record(spec, model, full_spheres), "zone_outcome": "limit",
+                  "zone_wall_s": perf_counter() - started,
                   "zone_limit_reached": e.reached, "zone_message": message,
                   "zones": np.array(model.zones).tolist()}
         write_json(stopped / GROWTH, {"spec": asdict(spec), **growth})

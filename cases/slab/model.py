@@ -293,6 +293,7 @@ def run(spec, model, out, quiet=False, resume=False, start=None, inputs=None):
 
 def run_built(m, out, quiet=False, resume=False, inputs=None):
     """Run the built slab model `m` to its spec.steps into the folder `out`."""
+    from cases.slab.quantities import split_unmeasured
     from orchestrator.run.inputs import spec_inputs
     from orchestrator.run.loop import Schedule, run as run_loop
     spec, model = m.spec, m.model
@@ -306,8 +307,10 @@ def run_built(m, out, quiet=False, resume=False, inputs=None):
         info["zone_cells"] = np.argwhere(m.grid.cells).tolist()
     schedule = Schedule(spec.steps, spec.sample_every, spec.check_every, spec.output_every,
                         spec.checkpoint_every)
+    unmeasured = spec.energy_split and split_unmeasured(m)
+    notes = [f"no energy split is recorded: {unmeasured}"] if unmeasured else []
     return run_loop(m, schedule, out, f"slab {model} ({spec.scale})", impact_energy,
-                    info=info, arrays=lambda: {"slab_index": m.slab_index},
+                    info=info, arrays=lambda: {"slab_index": m.slab_index}, notes=notes,
                     checks=lambda damage, peak: _post_run_checks(m, damage, peak, info, bars),
                     quiet=quiet, resume=resume,
                     inputs=spec_inputs(spec, model) if inputs is None else inputs)

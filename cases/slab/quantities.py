@@ -306,13 +306,22 @@ def event_ends(times, values):
 
 def _energy_split(model, last):
     """The model's EnergySplit (cases.slab.energies), or None where it is not measured: a
-    run without it (spec.energy_split), a scene split over MPI ranks, an FE over several."""
+    run without it (spec.energy_split), or one where split_unmeasured says why."""
     from cases.slab.energies import EnergySplit
-    from yade_side.distributed import remote
-    if (not model.spec.energy_split or remote() is not None
-            or (model.fe is not None and model.fe.comm.size > 1)):
+    if not model.spec.energy_split or split_unmeasured(model):
         return None
     return EnergySplit(model, last)
+
+
+def split_unmeasured(model):
+    """Why the energy split asked of `model` cannot be measured (a scene split over MPI
+    ranks, an FE over several: the meter reads one process's memory), else None."""
+    from yade_side.distributed import remote
+    if remote() is not None:
+        return "its YADE scene is split over MPI ranks"
+    if model.fe is not None and model.fe.comm.size > 1:
+        return "its FE is split over MPI ranks"
+    return None
 
 
 def _averaging(patch, weight, n):

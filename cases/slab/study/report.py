@@ -4,6 +4,7 @@ their intervals, against the margin), report.html, and the docs page with the pa
 row and the projection to 100,000 steps."""
 from common.files import save_figure, write_text
 from cases.slab import judge
+from cases.slab.study.table import mean, spent
 
 PAPER_STEPS = 100_000
 HEADER_CELLS = ["zone", "seeds", "spheres", "sphere ratio", "speed-up per step", "equivalent",
@@ -54,7 +55,7 @@ def config_cells(row):
     return ([zone_cell(row), ",".join(map(str, row["seeds"])) or "–",
              _f(row.get("spheres"), "{:.0f}"), _f(row.get("sphere_ratio"), "{:.2f}"), speed]
             + verdicts
-            + [checks_cell(row), f"{row['cost']['total_wall_s']:.0f}",
+            + [checks_cell(row), _f(row["cost"]["total_wall_s"], "{:.0f}"),
                f"{outcome(row['goal'], '**yes**')}: {row['goal']['why']}"])
 
 
@@ -78,7 +79,8 @@ def _full_line(impact):
     return (f"Full ensemble: seeds {', '.join(map(str, f['seeds'])) or 'none'}"
             + (f" (missing: {f['missing']})" if f["missing"] else "")
             + (f", {f['spheres']:.0f} spheres, {f['steps']} steps of {f['dt']:.4g} s, wall "
-               f"{', '.join(f'{w:.0f}' for w in f['wall_s'])} s" if f.get("spheres") else ""))
+               f"{', '.join(_f(w, '{:.0f}') for w in f['wall_s'])} s" if f.get("spheres")
+               else ""))
 
 
 MEASURE = ("Per zone: the yardstick's statistics (docs/slab.md, \"How a comparison is "
@@ -121,7 +123,7 @@ def table1(table):
             "coupled": {"spheres": row["spheres"], "fe_nodes": row["fe_nodes"],
                         "n_b": row["layers"], "bridging_spheres": row["bridging_spheres"],
                         "steps": row["steps"], "dt": row["dt"],
-                        "wall_s": row["cost"]["total_wall_s"] / len(row["seeds"]),
+                        "wall_s": mean(row["cost"]["wall_s"].values()),
                         "projected_100k_steps_s": {"timed": projected(t_c),
                                                    "run": projected(row["s_per_step"])}},
             "full": {"spheres": f["spheres"], "steps": f["steps"], "wall_s": f["wall_s"][0],
@@ -261,7 +263,7 @@ def _run_lines(runs, outcomes, projected_s):
     for r in runs:
         o = outcomes.get(r.folder)
         s = o.summary if o else None
-        wall = None if s is None else s.get("zone_total_wall_s", s.get("wall_s"))
+        wall = None if s is None else spent(s)
         lines.append(f"| {r.config.folder} | {r.seed} | {r.spec().steps or 'default'} | "
                      f"{o.status if o else 'not run'} | {_f(wall, '{:.0f}')} |")
     return lines + [""]

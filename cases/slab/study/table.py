@@ -55,7 +55,7 @@ def _full_figures(members):
     s = [x for _, _, x in done.values()]
     return {"seeds": sorted(done), "missing": sorted(set(members) - set(done)),
             "folders": {seed: str(f) for seed, (_, f, _) in done.items()},
-            "spheres": _mean([x["n_spheres"] for x in s]),
+            "spheres": mean([x["n_spheres"] for x in s]),
             "steps": s[0]["steps"] if s else None, "dt": s[0]["dt"] if s else None,
             "wall_s": [spent(x) for x in s], "s_per_step": [x["s_per_step"] for x in s]}
 
@@ -75,13 +75,13 @@ def config_row(c, members, full_members, timing):
     judged = {seed: m for seed, m in done.items() if seed not in limit}
     if judged:
         s = [x for _, _, x in judged.values()]
-        row.update(spheres=_mean([x["n_spheres"] for x in s]),
-                   fe_nodes=_mean([x["n_fe_nodes"] for x in s]),
-                   bridging_spheres=_mean([x["n_bridging_spheres"] for x in s]),
+        row.update(spheres=mean([x["n_spheres"] for x in s]),
+                   fe_nodes=mean([x["n_fe_nodes"] for x in s]),
+                   bridging_spheres=mean([x["n_bridging_spheres"] for x in s]),
                    layers=s[0]["spec"]["layers"], steps=s[0]["steps"], dt=s[0]["dt"],
-                   s_per_step=_mean([x["s_per_step"] for x in s]),
+                   s_per_step=mean([x["s_per_step"] for x in s]),
                    conversions=[len(x.get("zone_conversions", [])) for x in s])
-        full_spheres = _mean([x["n_spheres"] for _, _, x in _finished(full_members).values()])
+        full_spheres = mean([x["n_spheres"] for _, _, x in _finished(full_members).values()])
         if full_spheres is not None:
             row["sphere_ratio"] = full_spheres / row["spheres"]
     row["warnings"] = {seed: s.get("warnings", []) for seed, (_, _, s) in judged.items()}
@@ -115,8 +115,9 @@ def _judged(done, full):
 def _cost(done, full_members):
     """Wall seconds spent: every member, a grown zone's conversions included."""
     walls = {seed: spent(s) for seed, (_, _, s) in done.items()}
-    full_walls = [spent(s) for _, _, s in full_members.values()]
-    out = {"wall_s": walls, "total_wall_s": float(sum(walls.values()))}
+    full_walls = [w for w in (spent(s) for _, _, s in full_members.values()) if w]
+    known = [w for w in walls.values() if w is not None]
+    out = {"wall_s": walls, "total_wall_s": float(sum(known)) if known else None}
     if full_walls and walls:
         out["against_full_run"] = {seed: w / np.mean(full_walls) for seed, w in walls.items()
                                    if w}
@@ -124,11 +125,11 @@ def _cost(done, full_members):
 
 
 def spent(summary):
-    """Wall seconds a run took: its build and its steps (a grown zone: its conversions too;
-    one stopped at its limit: up to there)."""
-    if "zone_total_wall_s" in summary:
-        return summary["zone_total_wall_s"]
-    return summary.get("wall_s", 0.0) + summary.get("build_s", 0.0)
+    """Wall seconds a run took: its build and its steps, a grown zone's conversions included;
+    one stopped at its limit, up to there, and its fallback's (None: not recorded, a run
+    stopped before the record was kept)."""
+    parts = [summary[k] for k in ("zone_wall_s", "wall_s", "build_s") if k in summary]
+    return float(sum(parts)) if parts else None
 
 
 def _speedup(done, full, timing):
@@ -198,6 +199,6 @@ def choose(table):
     return {v: c for v, (_, c) in best.items()}
 
 
-def _mean(values):
+def mean(values):
     values = [v for v in values if v is not None]
     return float(np.mean(values)) if values else None
