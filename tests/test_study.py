@@ -237,6 +237,7 @@ def test_reuse_ignores_only_what_cannot_act_on_the_model():
     (["--seeds", "1"], "--seeds 1: the yardstick needs 2 or more distinct seeds"),
     (["--paper-seeds", "2,2"], "--paper-seeds 2,2: the yardstick needs 2 or more distinct"),
     (["--scale", "paper"], "--scale must be small or medium, got 'paper'"),
+    (["--only", "paper"], "--only paper runs nothing without paper seeds"),
 ])
 def test_refusals_are_one_line(tmp_path, capsys, args, message):
     assert main(["study", "--dry-run", "--out", str(tmp_path / "s")] + args) == 2
