@@ -46,10 +46,13 @@ class LinkMeter:
     over the interactions), `dissipated()` at the end."""
 
     def __init__(self):
-        self._phys, self._keys, self._known = [], [], set()
-        self._listed_at = -1          # the step of the last search: newer interactions are new
+        self._phys, self._keys = [], np.empty((0, 3), np.int64)
+        # the step of the last search (newer interactions are new), and the keys found made
+        # real at that step, which the next search sees again
+        self._listed_at, self._recent = -1, set()
         self.volume, self.young, self.shear_modulus = np.empty(0), np.empty(0), np.empty(0)
-        self._start = self._last = np.empty((0, len(COLUMNS)))
+        self._last = np.empty((0, len(COLUMNS)))
+        self._start_shear = np.empty(0)     # each one's stored shear energy when it joined
         self._batches, self._offset = [], None
         # per interaction, since it joined: the damage's dissipation, the shear and the
         # normal plastic work
@@ -61,7 +64,7 @@ class LinkMeter:
     @property
     def keys(self):
         """(n, 3) int: each measured interaction's id1, id2 and the step it was made real in."""
-        return np.array(self._keys, np.int64).reshape(-1, 3)
+        return self._keys
 
     damage = property(lambda self: float(self._damage.sum()))
     shear_work = property(lambda self: float(self._shear.sum()))
@@ -77,7 +80,9 @@ class LinkMeter:
         CpmPhys = import_yade().wrapper.CpmPhys
         since, self._listed_at = self._listed_at, O.iter
         new = [i for i in O.interactions if i.iterMadeReal >= since and i.isReal
-               and isinstance(i.phys, CpmPhys) and _key(i) not in self._known]
+               and isinstance(i.phys, CpmPhys) and _key(i) not in self._recent]
+        keys = [_key(i) for i in new]
+        self._recent = {k for k in self._recent | set(keys) if k[2] >= self._listed_at}
         if not new:
             return 0
         phys = [i.phys for i in new]
@@ -90,14 +95,13 @@ class LinkMeter:
         zeros = np.zeros(len(new))
         rows = np.arange(len(self._phys), len(self._phys) + len(new))
         self._phys += phys
-        keys = [_key(i) for i in new]
-        self._keys += keys
-        self._known.update(keys)
-        self.volume = np.concatenate([self.volume, p[:, 0] * p[:, 1]])
+        self._keys = np.concatenate([self._keys, np.array(keys, np.int64)])
+        volume, shear_modulus = p[:, 0] * p[:, 1], p[:, 3] * p[:, 1] / p[:, 0]  # G0 = ks L0 / A
+        self.volume = np.concatenate([self.volume, volume])
         self.young = np.concatenate([self.young, p[:, 2]])
-        self.shear_modulus = np.concatenate([self.shear_modulus,
-                                             p[:, 3] * p[:, 1] / p[:, 0]])  # G0 = ks L0 / A
-        self._start = np.concatenate([self._start, now])
+        self.shear_modulus = np.concatenate([self.shear_modulus, shear_modulus])
+        self._start_shear = np.concatenate([self._start_shear,
+                                            _shear_energy(now, volume, shear_modulus)])
         self._last = np.concatenate([self._last, now])
         self._damage, self._shear, self._plastic = (np.concatenate([a, zeros]) for a in
                                                     (self._damage, self._shear, self._plastic))
@@ -123,26 +127,33 @@ class LinkMeter:
             out[rows] = blocks.read()
         return out
 
-    _ARRAYS = ("volume", "young", "shear_modulus", "_start", "_last", "_damage", "_shear",
-               "_plastic")
+    _ARRAYS = ("volume", "young", "shear_modulus", "_start_shear", "_last", "_damage",
+               "_shear", "_plastic")
 
     def state(self):
         """What a checkpoint keeps ({name: array}): restored() carries on from it."""
-        return {"keys": self.keys, **{name.lstrip("_"): getattr(self, name)
-                                      for name in self._ARRAYS}}
+        return {"keys": self.keys, "listed_at": np.array(self._listed_at),
+                **{name.lstrip("_"): getattr(self, name) for name in self._ARRAYS}}
 
     @classmethod
     def restored(cls, state):
         """The meter whose state() a checkpoint kept, on the scene reloaded from it: the
-        interactions the scene still has are read on, those gone keep what they had."""
+        interactions the scene still has are read on, those gone keep what they had. (A state
+        kept before its search step was: the next search looks at every interaction.)"""
         O = import_yade().Omega()
         meter = cls.__new__(cls)
-        meter._keys = [tuple(int(v) for v in k) for k in np.asarray(state["keys"])]
-        meter._known, meter._listed_at = set(meter._keys), -1
+        meter._keys = np.asarray(state["keys"], np.int64).reshape(-1, 3)
+        meter._listed_at = int(state.get("listed_at", -1))
+        if "start" in state:        # a state kept whole blocks at the start
+            state = {**state, "start_shear": _shear_energy(
+                np.asarray(state["start"], float), np.asarray(state["volume"], float),
+                np.asarray(state["shear_modulus"], float))}
         for name in cls._ARRAYS:
             setattr(meter, name, np.array(state[name.lstrip("_")], float))
+        keys = [tuple(int(v) for v in k) for k in meter._keys]
+        meter._recent = {k for k in keys if k[2] >= meter._listed_at}
         scene = {_key(i): i for i in O.interactions if i.isReal}
-        found = [scene.get(k) for k in meter._keys]
+        found = [scene.get(k) for k in keys]
         meter._phys = [None if i is None else i.phys for i in found]
         meter._offset = find_offset([i for i in found if i is not None], SAMPLE)
         meter._bind()
@@ -165,11 +176,7 @@ class LinkMeter:
         return 0.5 * self.young * np.maximum(h[:, _EPS_N] - h[:, _EPS_N_PL], 0.0) ** 2
 
     def _shear_energy(self, h):
-        """½ |σT|² V / G0 per interaction (one without shear stiffness has none)."""
-        sig = h[:, _SIGMA_T]
-        return np.divide(0.5 * self.volume * np.einsum("ij,ij->i", sig, sig),
-                         self.shear_modulus, out=np.zeros(len(sig)),
-                         where=self.shear_modulus > 0)
+        return _shear_energy(h, self.volume, self.shear_modulus)
 
     def stored(self, alive):
         """The elastic energy each interaction holds at the last sample (J), ½ V (σN (εN − εNPl)
@@ -184,7 +191,7 @@ class LinkMeter:
         joined (J), the shear less the change of its stored shear energy (a link gone, or
         released, has lost its own); `alive`: alive()'s mask."""
         shear = self._shear - (np.where(alive, self._shear_energy(self._last), 0.0)
-                               - self._shear_energy(self._start))
+                               - self._start_shear)
         return {"damage": self._damage, "shear": shear, "plastic": self._plastic}
 
     def dissipated(self):
@@ -206,8 +213,22 @@ class LinkMeter:
         """Which of the measured interactions the scene still has (a pair that touches again
         makes another one)."""
         O = import_yade().Omega()
-        now = {_key(i) for i in O.interactions if i.isReal}
-        return np.array([k in now for k in self._keys], bool)
+        now = np.array([_key(i) for i in O.interactions if i.isReal], np.int64).reshape(-1, 3)
+        return np.isin(_rows(self._keys), _rows(now))
+
+
+def _rows(keys):
+    """Each row of an (n, 3) int array as one value, for set operations on rows."""
+    keys = np.ascontiguousarray(keys, np.int64)
+    return keys.view(np.dtype((np.void, keys.dtype.itemsize * 3))).ravel()
+
+
+def _shear_energy(h, volume, shear_modulus):
+    """½ |σT|² V / G0 per interaction of the history columns `h` (one without shear stiffness
+    has none)."""
+    sig = h[:, _SIGMA_T]
+    return np.divide(0.5 * volume * np.einsum("ij,ij->i", sig, sig), shear_modulus,
+                     out=np.zeros(len(sig)), where=shear_modulus > 0)
 
 
 def _key(interaction):

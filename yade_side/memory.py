@@ -199,8 +199,11 @@ class Blocks:
     def __init__(self, objects, offset, width, columns=None):
         self._objects = list(objects)
         rows, self._view = _object_view(self._objects, offset + width)
-        self._index = rows[:, None] + offset + (np.arange(width) if columns is None
-                                                else np.asarray(columns, int))
+        index = rows[:, None] + offset + (np.arange(width) if columns is None
+                                          else np.asarray(columns, int))
+        # half the memory where the objects lie within 16 GB of each other (the usual heap)
+        small = index.size and index.max() < np.iinfo(np.int32).max
+        self._index = index.astype(np.int32) if small else index
 
     def read(self):
         """(objects, columns) doubles: every column of the block, or `columns` of it."""

@@ -61,7 +61,9 @@ def run(args):
                    steps=args.steps, seeds=args.seeds, paper_seeds=args.paper_seeds)
     out = Path(args.out)
     medium = sp.plan(only="medium", **options)      # --only says what runs, not what is shown
-    sp.plan(only=args.only, **options)              # every option checked before a run
+    if not sp.plan(only=args.only, **options):      # every option checked before a run
+        raise ValueError("study: --only paper runs nothing without paper seeds: give "
+                         "--paper-seeds or --sweep full")
     if args.dry_run:
         return _dry_run(medium, options, args, out, index, bench)
     from cases.slab.study import report, table as st
