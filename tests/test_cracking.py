@@ -175,15 +175,22 @@ def test_a_restored_meter_carries_on_as_if_never_stopped():
     a link the scene no longer has keeps what it had."""
     held_spheres([(0, 0, 0), (2 * R, 0, 0), (4 * R, 0, 0)], R)
     meter = LinkMeter()
+    start = meter._last.copy()          # the history blocks an earlier version kept
     pull(meter, (0, E0 * L0 / (10 * O.dt), 0), 40)
     again = LinkMeter.restored(meter.state())
+    # a state written by the earlier version: the start's blocks, no search step
+    state = {k: v for k, v in meter.state().items() if k not in ("start_shear", "listed_at")}
+    older = LinkMeter.restored({**state, "start": start})
     for _ in range(10):
         O.step()
-        meter.sample()
-        again.sample()
+        for m in (meter, again, older):
+            m.sample()
     alive = meter.alive()
-    for a, b in zip(meter.per_interaction(alive).values(), again.per_interaction(alive).values()):
-        assert a.tobytes() == b.tobytes()
+    for other in (again, older):
+        assert other.relist() == 0
+        for a, b in zip(meter.per_interaction(alive).values(),
+                        other.per_interaction(alive).values()):
+            assert a.tobytes() == b.tobytes()
     assert meter.damage > 0
     O.interactions.erase(0, 1)
     gone = LinkMeter.restored(meter.state())

@@ -138,13 +138,14 @@ class LinkMeter:
     @classmethod
     def restored(cls, state):
         """The meter whose state() a checkpoint kept, on the scene reloaded from it: the
-        interactions the scene still has are read on, those gone keep what they had. (A state
-        kept before its search step was: the next search looks at every interaction.)"""
+        interactions the scene still has are read on, those gone keep what they had. A state
+        of an earlier version (each one's history block at its start, no search step) is read
+        too: its next search looks at every interaction."""
         O = import_yade().Omega()
         meter = cls.__new__(cls)
         meter._keys = np.asarray(state["keys"], np.int64).reshape(-1, 3)
         meter._listed_at = int(state.get("listed_at", -1))
-        if "start" in state:        # a state kept whole blocks at the start
+        if "start" in state:        # the earlier version's
             state = {**state, "start_shear": _shear_energy(
                 np.asarray(state["start"], float), np.asarray(state["volume"], float),
                 np.asarray(state["shear_modulus"], float))}
