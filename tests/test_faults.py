@@ -515,7 +515,7 @@ def test_a_stopped_ensemble_stops_its_members_and_starts_no_more(tmp_path):
     started, the parent exits 143 in one line; no member is left running."""
     out = tmp_path / "ens"
     proc = subprocess.Popen([sys.executable, "-m", "cli", "slab", "--model", "full", "--scale",
-                             "small", "--seeds", "1,2", "--jobs", "1", "--steps", "3000",
+                             "small", "--seeds", "1,2", "--jobs", "1", "--steps", "200",
                              "--checkpoint-every", "20", "--out", str(out), "--quiet"], cwd=ROOT,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             env=dict(os.environ, OMP_NUM_THREADS="1"))
@@ -532,6 +532,27 @@ def test_a_stopped_ensemble_stops_its_members_and_starts_no_more(tmp_path):
     members = subprocess.run(["pgrep", "-f", "--", f"--out {out}/seed-"], capture_output=True)
     assert members.returncode == 1          # none found (2: pgrep could not search)
     assert members.stdout == b""
+    # `slab --resume` of the ensemble: seed 1 carries on from its checkpoint, seed 2 runs
+    resumed = subprocess.run([sys.executable, "-m", "cli", "slab", "--resume", str(out),
+                              "--jobs", "2", "--quiet"], cwd=ROOT, capture_output=True,
+                             text=True, env=dict(os.environ, OMP_NUM_THREADS="1"))
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"ensemble {out}: seed 1 carries on; seed 2 runs" in resumed.stdout
+    assert "resumed from the checkpoint" in (out / "seed-1" / "run.log").read_text()
+    for seed in (1, 2):
+        assert json.loads((out / f"seed-{seed}" / "summary.json").read_text())["steps"] == 200
+    assert main(["slab", "--resume", str(out)]) == 0        # nothing left to run
+
+
+def test_an_ensemble_resume_refuses_options_and_a_broken_record_in_one_line(tmp_path, capsys):
+    ens = tmp_path / "ens"
+    ens.mkdir()
+    (ens / "ensemble.json").write_text("{not json")
+    for extra, message in ((["--steps", "10"], "give no --steps with it"),
+                           ([], "ensemble.json: unreadable")):
+        assert main(["slab", "--resume", str(ens), *extra]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1
 
 
 # --- the bad-input sweep: every numeric option, NaN, inf, 0, negative, huge ----------------

@@ -24,7 +24,8 @@ def configure(p):
     add_threads(p)
     p.add_argument("--resume", metavar="DIR",
                    help="carry on a stopped run from its checkpoint (other options are taken "
-                        "from it)")
+                        "from it); an ensemble's folder: its stopped members from theirs, "
+                        "those not started from the start, --jobs at a time")
     add_out(p, "results folder", required=False)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -33,6 +34,8 @@ def run(args):
     from pathlib import Path
     from cases import slab
     from orchestrator.run import folder
+    if args.resume and (Path(args.resume) / ENSEMBLE).is_file():
+        return _resume_ensemble(args)
     if args.resume:
         spec, model = _from_checkpoint(args)
     elif args.out and args.model:
@@ -151,17 +154,9 @@ def _check_zone_fits(folder, summary, spec):
 def _from_checkpoint(args):
     """(spec, model) of the run to resume in args.resume; its threads unless --threads is
     given (a 1-thread run stays bit-identical)."""
-    from dataclasses import fields
     from cases.slab import SlabSpec
     from orchestrator.run.restart import resume_meta
-    given = [option(f.name) for f in fields(SlabSpec)
-             if getattr(args, f.name, None) is not None]
-    given += [o for o, v in (("--model", args.model), ("--out", args.out),
-                             ("--force", args.force), ("--seeds", args.seeds),
-                             ("--jobs", args.jobs)) if v]
-    if given:
-        raise ValueError(f"--resume DIR takes the slab and its folder from DIR's "
-                         f"checkpoint: give no {', '.join(given)} with it")
+    _refuse_with_resume(args, "the slab and its folder from DIR's checkpoint", "--jobs")
     from pathlib import Path
     from cases.slab.grow import fallback_spec
     grown = fallback_spec(args.resume)     # a grown run at its limit, its fallback stopped
@@ -177,32 +172,99 @@ def _from_checkpoint(args):
     return SlabSpec(**info["spec"]), info["model"]
 
 
+# the ensemble's record in its folder: each member's command line, for `--resume DIR`
+ENSEMBLE = "ensemble.json"
+
+
 def _ensemble(model, args, spec):
     """One member per seed, DIR/seed-N, each a `slab --seed N` process of its own, `--jobs` at
     a time (default: one per core, or per spec.mpi - 1 cores: each member's workers). Members
     run on one YADE thread unless --threads is given, so each is bit-identical to the same
-    seed run alone with --threads 1."""
-    import signal
-    import subprocess
-    import sys
-    import threading
-    from concurrent.futures import ThreadPoolExecutor
-    from cli.mpi import environment_without_mpi
+    seed run alone with --threads 1. DIR/ensemble.json keeps each member's command line."""
+    from common.files import write_json
     from orchestrator.run.folder import prepare_out
-    from orchestrator.run.restart import Stopped
     from yade_side import cores
     jobs = args.jobs or max(1, min(len(args.seeds), cores() // max(1, spec.mpi - 1)))
     if spec.mpi:
         from cli.mpi import check_machine
         check_machine(spec.mpi, min(jobs, len(args.seeds)))
     top = prepare_out(args.out, args.force, _inputs(args))
-    quiet = args.quiet or jobs > 1          # one progress bar per terminal
+    members = {seed: ["--model", model, *_spec_argv(args, seed), "--out",
+                      str(top / f"seed-{seed}"), "--threads", str(args.threads or 1)]
+               for seed in args.seeds}
+    write_json(top / ENSEMBLE, {"members": {str(s): argv for s, argv in members.items()},
+                                "mpi": spec.mpi})
+    return _run_members(top, members, jobs, args.quiet)
+
+
+def _resume_ensemble(args):
+    """`slab --resume DIR` of an ensemble's folder: each member with results is left, a
+    stopped one carries on from its checkpoint, one not started (or stopped before its first
+    checkpoint) runs from the start, `--jobs` at a time."""
+    import json
+    from pathlib import Path
+    from yade_side import cores
+    _refuse_with_resume(args, f"the ensemble's members from DIR/{ENSEMBLE}")
+    top = Path(args.resume)
+    try:
+        record = json.loads((top / ENSEMBLE).read_text())
+        argvs = {int(s): list(argv) for s, argv in record["members"].items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
+        raise ValueError(f"{top / ENSEMBLE}: unreadable ({e!r})") from None
+    members, done = {}, []
+    for seed, argv in sorted(argvs.items()):
+        folder = top / f"seed-{seed}"
+        if (folder / "summary.json").is_file():
+            done.append(seed)
+        elif _resumable(folder):
+            members[seed] = ["--resume", str(folder)] + (
+                ["--threads", str(args.threads)] if args.threads else [])
+        else:
+            members[seed] = argv + ["--force"]      # nothing of it to keep: from the start
+    if not members:
+        print(f"ensemble {top}: every member has its results")
+        return 0
+    print(f"ensemble {top}: " + "; ".join(
+        f"seed {s} {'carries on' if m[0] == '--resume' else 'runs'}"
+        for s, m in members.items()) + (f"; seeds {', '.join(map(str, done))} done" if done
+                                         else ""))
+    jobs = args.jobs or max(1, min(len(members), cores() // max(1, record.get("mpi", 0) - 1)))
+    return _run_members(top, members, jobs, args.quiet)
+
+
+def _refuse_with_resume(args, what, *more):
+    """One line for an option given with --resume DIR, which takes `what` from DIR."""
+    from dataclasses import fields
+    from cases.slab import SlabSpec
+    given = [option(f.name) for f in fields(SlabSpec) if getattr(args, f.name, None) is not None]
+    given += [o for o in ("--model", "--out", "--force", "--seeds", *more)
+              if getattr(args, o[2:].replace("-", "_"))]
+    if given:
+        raise ValueError(f"--resume DIR takes {what}: give no {', '.join(given)} with it")
+
+
+def _resumable(folder):
+    """A member folder that a `slab --resume` carries on: its checkpoint, or the checkpoint of
+    the full model a grown zone at its limit fell back to."""
+    return any((f / "checkpoint" / "meta.json").is_file() for f in (folder, folder / "full"))
+
+
+def _run_members(top, members, jobs, quiet):
+    """Run the members ({seed: `slab` options}) of the ensemble in `top`, `jobs` at a time;
+    SIGTERM or SIGINT stops the running ones (each checkpoints) and starts no more."""
+    import signal
+    import subprocess
+    import sys
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+    from cli.mpi import environment_without_mpi
+    from orchestrator.run.restart import Stopped
+    quiet = quiet or jobs > 1          # one progress bar per terminal
     running, lock, stopped = set(), threading.Lock(), []
 
     def member(seed):
-        cmd = [sys.executable, "-m", "cli", "slab", "--model", model,
-               *_spec_argv(args, seed), "--out", str(top / f"seed-{seed}"),
-               "--threads", str(args.threads or 1)] + (["--quiet"] if quiet else [])
+        cmd = ([sys.executable, "-m", "cli", "slab", *members[seed]]
+               + (["--quiet"] if quiet else []))
         with lock:
             if stopped:                     # asked to stop: start no more members
                 return None
@@ -223,14 +285,14 @@ def _ensemble(model, args, spec):
     previous = {s: signal.signal(s, stop) for s in (signal.SIGTERM, signal.SIGINT)}
     try:
         with ThreadPoolExecutor(max_workers=jobs) as pool:
-            codes = dict(zip(args.seeds, pool.map(member, args.seeds)))
+            codes = dict(zip(members, pool.map(member, members)))
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
     if stopped:
-        raise Stopped(f"ensemble {top}: stopped, and its running members with it (each "
-                      f"carries on with `slab --resume {top}/seed-N`; a member not started "
-                      f"runs with `--seed N`)", stopped[0])
+        raise Stopped(f"ensemble {top}: stopped, and its running members with it; `slab "
+                      f"--resume {top}` carries them on and runs those not started",
+                      stopped[0])
     why = {s: _why_no_result(top / f"seed-{s}", c) for s, c in codes.items() if c}
     failed = [f"seed {s} ({text})" for s, (text, _) in why.items()]
     if any(not outcome for _, outcome in why.values()):
