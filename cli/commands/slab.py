@@ -180,7 +180,8 @@ def _ensemble(model, args, spec):
     """One member per seed, DIR/seed-N, each a `slab --seed N` process of its own, `--jobs` at
     a time (default: one per core, or per spec.mpi - 1 cores: each member's workers). Members
     run on one YADE thread unless --threads is given, so each is bit-identical to the same
-    seed run alone with --threads 1. DIR/ensemble.json keeps each member's command line."""
+    seed run alone with --threads 1. DIR/ensemble.json keeps each member's options (its
+    folder apart: the ensemble's folder may move)."""
     from common.files import write_json
     from orchestrator.run.folder import prepare_out
     from yade_side import cores
@@ -189,12 +190,12 @@ def _ensemble(model, args, spec):
         from cli.mpi import check_machine
         check_machine(spec.mpi, min(jobs, len(args.seeds)))
     top = prepare_out(args.out, args.force, _inputs(args))
-    members = {seed: ["--model", model, *_spec_argv(args, seed), "--out",
-                      str(top / f"seed-{seed}"), "--threads", str(args.threads or 1)]
-               for seed in args.seeds}
-    write_json(top / ENSEMBLE, {"members": {str(s): argv for s, argv in members.items()},
+    argvs = {seed: ["--model", model, *_spec_argv(args, seed), "--threads",
+                    str(args.threads or 1)] for seed in args.seeds}
+    write_json(top / ENSEMBLE, {"members": {str(s): argv for s, argv in argvs.items()},
                                 "mpi": spec.mpi})
-    return _run_members(top, members, jobs, args.quiet)
+    return _run_members(top, {s: argv + ["--out", str(top / f"seed-{s}")]
+                              for s, argv in argvs.items()}, jobs, args.quiet)
 
 
 def _resume_ensemble(args):
@@ -220,7 +221,8 @@ def _resume_ensemble(args):
             members[seed] = ["--resume", str(folder)] + (
                 ["--threads", str(args.threads)] if args.threads else [])
         else:
-            members[seed] = argv + ["--force"]      # nothing of it to keep: from the start
+            # nothing of it to keep: from the start
+            members[seed] = argv + ["--out", str(folder), "--force"]
     if not members:
         print(f"ensemble {top}: every member has its results")
         return 0
