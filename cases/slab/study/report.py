@@ -156,7 +156,8 @@ def table1_lines(t):
 def plot_impact(impact, path):
     """Each judged configuration's difference from the full mean on every peak and total
     (the coupled minus the full mean, relative to it) with its interval, against ±the margin:
-    a forest of the equivalence tests (o equivalent, x not equivalent, + cannot judge)."""
+    a forest of the equivalence tests (o equivalent, x not equivalent, + cannot judge; a
+    statistic cut by the window is marked "not judged")."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -171,6 +172,8 @@ def plot_impact(impact, path):
         for y, (q, s) in enumerate(names):
             r = qoi[q][s]
             if "interval" not in r:          # not judged: cut by the window
+                ax.annotate("not judged", (0, y), color="0.5", fontsize=7, ha="center",
+                            va="center")
                 continue
             off = y + 0.15 * (k - (len(rows) - 1) / 2)
             ax.plot([100 * r["interval"][0], 100 * r["interval"][1]], [off, off], "-",
