@@ -269,7 +269,11 @@ class ElasticModel:
     def kinetic_energy(self, weights=None):
         """½ Σ w m v² with the half-step velocity v(t − dt/2); weights per dof (default 1)."""
         w = 1.0 if weights is None else weights
-        return self.comm.allreduce(0.5 * float(np.sum(w * self.mass * self._v ** 2)))
+        return self.comm.allreduce(float(np.sum(w * self.nodal_kinetic_energy())))
+
+    def nodal_kinetic_energy(self):
+        """½ m_i v_i² per owned dof, with the half-step velocity."""
+        return 0.5 * self.mass * self._v ** 2
 
     def strain_energy(self, weights=None):
         """½ Σ w u (K u) at time t (nodal_strain_energy); weights per dof (default 1); and the

@@ -104,7 +104,7 @@ class EnergySplit:
         fe = self.m.fe
         if fe is not None:
             dofs = np.repeat(self.regions(fe.nodes), 3)
-            for term, per_dof in (("kinetic", 0.5 * fe.mass * fe.v ** 2),
+            for term, per_dof in (("kinetic", fe.nodal_kinetic_energy()),
                                   ("elastic", fe.nodal_strain_energy())):
                 for r, e in _by_region(dofs, per_dof).items():
                     out[term][r] += e

@@ -37,9 +37,10 @@ def build(runs, out, index=None, timing=None):
         found = {c: {r.seed: (r, *where(r, out, index or {})) for r in rs}
                  for c, rs in configs.items()}
         full_cfg = next(c for c in configs if c.model == "full")
-        full = found[full_cfg]
+        full = _finished(found[full_cfg])
         impacts.append({"group": group, "scale": full_cfg.scale, "velocity": full_cfg.velocity,
-                        "reinforced": full_cfg.reinforced, "full": _full_figures(full),
+                        "reinforced": full_cfg.reinforced,
+                        "full": _full_figures(found[full_cfg]),
                         "configs": [config_row(c, members, full, timing)
                                     for c, members in found.items() if c.model != "full"]})
     return {"impacts": impacts}
@@ -62,12 +63,12 @@ def _full_figures(members):
 
 def config_row(c, members, full_members, timing):
     """The figures of one coupled configuration (members: {seed: (planned, folder,
-    summary)}, full_members: its impact's full ones)."""
+    summary)}, full_members: its impact's finished full ones)."""
     done = _finished(members)
     row = {"config": c.name, "zone": c.zone, "de_zone_m": c.de_zone,
            "seeds": sorted(done), "missing": sorted(set(members) - set(done)),
            "folders": {seed: str(f) for seed, (_, f, _) in done.items()},
-           "cost": _cost(done, _finished(full_members))}
+           "cost": _cost(done, full_members)}
     limit = [seed for seed, (_, _, s) in done.items() if s.get("zone_outcome") == "limit"]
     row["zone_limit_seeds"] = limit
     if limit:
@@ -81,12 +82,12 @@ def config_row(c, members, full_members, timing):
                    layers=s[0]["spec"]["layers"], steps=s[0]["steps"], dt=s[0]["dt"],
                    s_per_step=mean([x["s_per_step"] for x in s]),
                    conversions=[len(x.get("zone_conversions", [])) for x in s])
-        full_spheres = mean([x["n_spheres"] for _, _, x in _finished(full_members).values()])
+        full_spheres = mean([x["n_spheres"] for _, _, x in full_members.values()])
         if full_spheres is not None:
             row["sphere_ratio"] = full_spheres / row["spheres"]
     row["warnings"] = {seed: s.get("warnings", []) for seed, (_, _, s) in judged.items()}
-    row["speedup"] = _speedup(judged, _finished(full_members), timing)
-    row["judged"] = _judged(judged, _finished(full_members))
+    row["speedup"] = _speedup(judged, full_members, timing)
+    row["judged"] = _judged(judged, full_members)
     row["goal"] = goal(c.scale, row)
     return row
 
